@@ -1,0 +1,50 @@
+# taskcomplexity — every target installs what it needs first (a bare machine with Python 3.11 is enough).
+SHELL := /bin/bash
+PYTHON ?= python3.11
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+TORCH := torch==2.13.0
+
+.DEFAULT_GOAL := help
+.PHONY: help install run paper test test-all lint bench clean clean-cache cache-list
+
+help: ## list the targets
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
+
+$(STAMP): pyproject.toml
+	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet $(TORCH)
+	$(PY) -m pip install --quiet -e '.[dev]'
+	@touch $(STAMP)
+
+install: $(STAMP) ## create .venv and install the package with its pinned dependencies
+
+run: $(STAMP) ## the main job: the quick study (RWG, metrics, SAC, report)
+	$(PY) pipelines/study.py experiment=quick
+
+paper: $(STAMP) ## the full published protocol (hours)
+	$(PY) pipelines/study.py experiment=paper
+
+test: $(STAMP) ## run the test suite (what CI runs)
+	$(PY) -m pytest -q -m "not slow"
+
+test-all: $(STAMP) ## every test, including the slow learning checks
+	$(PY) -m pytest -q
+
+lint: $(STAMP) ## ruff
+	$(VENV)/bin/ruff check src tests pipelines bench
+
+bench: $(STAMP) ## benchmarks: figures and ratios measured side by side
+	$(PY) bench/run.py
+
+cache-list: $(STAMP) ## list cached artefacts with their sizes
+	$(PY) -m taskcomplexity.pipeline.cache list
+
+clean-cache: ## delete outputs/cache
+	rm -rf outputs/cache
+
+clean: ## delete the virtualenv and all outputs
+	rm -rf $(VENV) outputs/cache outputs/runs outputs/reports outputs/tables

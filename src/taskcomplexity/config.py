@@ -1,0 +1,117 @@
+"""From Hydra/OmegaConf configuration to the library's plain dataclasses.
+
+The library never needs Hydra: every stage takes frozen dataclasses. :func:`build` turns a config
+node (an OmegaConf ``DictConfig`` or a plain ``dict``) into such a dataclass, checking keys and types
+against the dataclass fields and calling its ``validate()``; any problem raises :class:`ConfigError`
+with one line naming the full key, the value received and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from collections.abc import Mapping, Sequence
+from typing import Any, TypeVar
+
+from taskcomplexity.errors import ConfigError
+
+T = TypeVar("T")
+
+
+def _plain(node: Any) -> Any:
+    try:
+        from omegaconf import DictConfig, ListConfig, OmegaConf
+    except ImportError:  # pragma: no cover
+        return node
+    if isinstance(node, (DictConfig, ListConfig)):
+        return OmegaConf.to_container(node, resolve=True)
+    return node
+
+
+def _convert(value: Any, hint: Any, key: str) -> Any:
+    origin = typing.get_origin(hint)
+    args = typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        inner = [a for a in args if a is not type(None)]
+        return _convert(value, inner[0], key)
+    if dataclasses.is_dataclass(hint):
+        return build(hint, value, key)
+    if origin is tuple:
+        if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
+            raise ConfigError(f"{key} must be a list, got {value!r}")
+        item = args[0]
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(v, item, f"{key}[{i}]") for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise ConfigError(f"{key} must be a list of {len(args)} values, got {value!r}")
+        return tuple(_convert(v, a, f"{key}[{i}]") for i, (v, a) in enumerate(zip(value, args, strict=True)))
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{key} must be a number, got {value!r}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{key} must be an integer, got {value!r}")
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{key} must be true or false, got {value!r}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{key} must be a string, got {value!r}")
+        return value
+    return value
+
+
+def build(cls: type[T], node: Any, key: str) -> T:
+    """Build dataclass ``cls`` from config ``node``, naming ``key`` in every error.
+
+    Parameters
+    ----------
+    cls : dataclass type
+    node : DictConfig or mapping
+    key : str
+        Dotted config path of ``node`` (e.g. ``"arm"``), used in messages.
+    """
+    node = _plain(node)
+    if isinstance(node, cls):
+        return node
+    if not isinstance(node, Mapping):
+        raise ConfigError(f"{key} must be a mapping of {cls.__name__} fields, got {node!r}")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(node) - set(fields))
+    if unknown:
+        raise ConfigError(f"{key}.{unknown[0]} is not a known key (allowed: {', '.join(sorted(fields))})")
+    kwargs = {}
+    for name, field in fields.items():
+        if name in node:
+            kwargs[name] = _convert(node[name], hints[name], f"{key}.{name}")
+        elif field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING:
+            raise ConfigError(f"{key}.{name} is required")
+    obj = cls(**kwargs)
+    validate = getattr(obj, "validate", None)
+    if callable(validate):
+        try:
+            validate()
+        except ConfigError:
+            raise
+        except TypeError:
+            validate(key)
+    return obj
+
+
+def task_from_config(cfg: Any):
+    """The :class:`~taskcomplexity.tasks.spec.TaskSpec` of a composed config (keys ``arm``, ``reward``)."""
+    from taskcomplexity.tasks.spec import ArmSpec, RewardSpec, TaskSpec
+
+    arm = build(ArmSpec, cfg["arm"], "arm")
+    reward = build(RewardSpec, cfg["reward"], "reward")
+    max_steps = _plain(cfg).get("max_steps", 50) if isinstance(_plain(cfg), Mapping) else 50
+    return TaskSpec(arm=arm, reward=reward, max_steps=int(max_steps)).validate()

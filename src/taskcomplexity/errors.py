@@ -1,0 +1,13 @@
+"""Exceptions the library raises; entry points turn them into one readable line and a non-zero exit."""
+
+
+class TaskComplexityError(Exception):
+    """Base class of the library's own errors."""
+
+
+class ConfigError(TaskComplexityError, ValueError):
+    """A configuration value is invalid; the message names the key, the value and what is allowed."""
+
+
+class ArtefactError(TaskComplexityError):
+    """A cached artefact is missing, incomplete or corrupt."""

@@ -1,0 +1,341 @@
+"""Task specifications: the arm, the reward and (optionally) the obstacle of a reaching task.
+
+Plain frozen dataclasses, usable without Hydra. The Hydra configs under ``conf/arm`` and
+``conf/reward`` hold exactly these fields; ``tests/tasks/test_config.py`` keeps the YAML files and
+the presets below equal. All lengths in metres, masses in kilograms, angles in radians, torques in
+N·m, times in seconds (see ``shared/spec/environments.md``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from taskcomplexity.errors import ConfigError
+
+# A link box overhangs its joint by this much behind the pivot, and is this thick (square section).
+LINK_OVERHANG = 0.05
+LINK_WIDTH = 0.05
+
+
+@dataclass(frozen=True)
+class LinkSpec:
+    """One rigid link of a planar arm, rotating about the z axis of its proximal joint.
+
+    Attributes
+    ----------
+    length : float
+        Kinematic length from this joint to the next joint (or the end effector), metres. The
+        collision box spans ``-LINK_OVERHANG ... length`` along the link's x axis.
+    mass : float
+        Link mass, kg.
+    com : float
+        Centre of mass along the link's x axis, measured from the joint, metres.
+    joint_damping : float
+        URDF joint damping of the proximal joint, N·m·s/rad.
+    """
+
+    length: float
+    mass: float
+    com: float
+    joint_damping: float = 0.0
+
+    @property
+    def box_length(self) -> float:
+        return self.length + LINK_OVERHANG
+
+    @property
+    def box_origin(self) -> float:
+        return (self.length - LINK_OVERHANG) / 2.0
+
+    def validate(self, where: str) -> None:
+        _positive(f"{where}.length", self.length)
+        _positive(f"{where}.mass", self.mass)
+        _non_negative(f"{where}.joint_damping", self.joint_damping)
+        if not -LINK_OVERHANG <= self.com <= self.length:
+            raise ConfigError(
+                f"{where}.com must lie on the link box [{-LINK_OVERHANG}, {self.length}], got {self.com}"
+            )
+
+
+@dataclass(frozen=True)
+class ObstacleSpec:
+    """A fixed block the forearm must avoid (pybullet_data ``block.urdf``, scaled, stood upright).
+
+    Attributes
+    ----------
+    radius, angle_deg : float
+        Polar position of the block centre in the arm's plane (metres, degrees).
+    height : float
+        z of the block centre, metres.
+    scale : float
+        ``globalScaling`` of ``block.urdf``.
+    obstacle_radius, link_thickness : float
+        Clearances r_o and t_o of the distance model, metres.
+    collision_distance : float
+        A clearance at or below this counts as a collision (c = 1), metres.
+    collision_penalty, proximity_weight, proximity_decay : float
+        Reward terms 1000·c and 5·exp(−2.5·d).
+    segment_points : int
+        The forearm is sampled at k = 0 … segment_points for d₂.
+    """
+
+    radius: float = 1.25
+    angle_deg: float = 31.0
+    height: float = 0.05
+    scale: float = 0.9
+    obstacle_radius: float = 0.02
+    link_thickness: float = 0.05
+    collision_distance: float = 0.005
+    collision_penalty: float = 1000.0
+    proximity_weight: float = 5.0
+    proximity_decay: float = 2.5
+    segment_points: int = 50
+
+    @property
+    def position(self) -> tuple[float, float]:
+        a = math.radians(self.angle_deg)
+        return (self.radius * math.cos(a), self.radius * math.sin(a))
+
+    def validate(self, where: str) -> None:
+        _positive(f"{where}.radius", self.radius)
+        _positive(f"{where}.scale", self.scale)
+        _non_negative(f"{where}.obstacle_radius", self.obstacle_radius)
+        _non_negative(f"{where}.link_thickness", self.link_thickness)
+        _non_negative(f"{where}.collision_distance", self.collision_distance)
+        if self.segment_points < 1:
+            raise ConfigError(f"{where}.segment_points must be >= 1, got {self.segment_points}")
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """A planar arm of one or two links on a fixed pin, and how its task is posed.
+
+    Attributes
+    ----------
+    name : str
+        Config name, e.g. ``one_link_1m0``.
+    links : tuple of LinkSpec
+        Shoulder first.
+    torque_scale : tuple of float
+        Torque per unit action for each joint, N·m.
+    time_step : float
+        Physics time step, s. One environment step is ``substeps`` physics steps.
+    substeps : int
+        ``stepSimulation`` calls per environment step (the torque acts in the first only).
+    target_radius : tuple of float
+        Target distance from the base is drawn from U[low, high], metres.
+    round_angles : tuple of str
+        Reward kinds whose observation rounds joint angles to ``angle_decimals`` decimals.
+    angle_decimals : int
+        Decimals of the rounding.
+    obstacle : ObstacleSpec or None
+        A fixed block to avoid (dense reward only).
+    pin_mass : float
+        Mass of the fixed root pin, kg (irrelevant to the dynamics; kept for a faithful URDF).
+    """
+
+    name: str
+    links: tuple[LinkSpec, ...]
+    torque_scale: tuple[float, ...]
+    time_step: float
+    target_radius: tuple[float, float]
+    round_angles: tuple[str, ...] = ("dense",)
+    angle_decimals: int = 2
+    substeps: int = 51
+    obstacle: ObstacleSpec | None = None
+    pin_mass: float = 0.04256858
+
+    @property
+    def dof(self) -> int:
+        return len(self.links)
+
+    @property
+    def reach(self) -> float:
+        return sum(link.length for link in self.links)
+
+    def validate(self) -> None:
+        where = f"arm={self.name}"
+        if self.dof not in (1, 2):
+            raise ConfigError(f"{where}: links must hold 1 or 2 links, got {self.dof}")
+        for i, link in enumerate(self.links):
+            link.validate(f"arm.links[{i}]")
+        if len(self.torque_scale) != self.dof:
+            raise ConfigError(
+                f"arm.torque_scale must have one entry per link ({self.dof}), got {list(self.torque_scale)}"
+            )
+        for i, scale in enumerate(self.torque_scale):
+            _positive(f"arm.torque_scale[{i}]", scale)
+        _positive("arm.time_step", self.time_step)
+        if self.substeps < 1:
+            raise ConfigError(f"arm.substeps must be an integer >= 1, got {self.substeps}")
+        low, high = self.target_radius
+        if not 0 <= low <= high:
+            raise ConfigError(f"arm.target_radius must be [low, high] with 0 <= low <= high, got {[low, high]}")
+        for kind in self.round_angles:
+            if kind not in REWARD_KINDS:
+                raise ConfigError(f"arm.round_angles entries must be in {list(REWARD_KINDS)}, got {kind!r}")
+        if self.obstacle is not None:
+            if self.dof != 2:
+                raise ConfigError("arm.obstacle needs a 2-link arm (the forearm is checked against it)")
+            self.obstacle.validate("arm.obstacle")
+
+
+REWARD_KINDS = ("dense", "sparse")
+
+
+@dataclass(frozen=True)
+class RewardSpec:
+    """Per-step reward.
+
+    Attributes
+    ----------
+    kind : {'dense', 'sparse'}
+        dense: r = −(d² + Σ aᵢ²) (+ obstacle terms); sparse: r = 0 if d < threshold else −1.
+    threshold : float
+        Success distance, metres; the episode terminates when d < threshold.
+    """
+
+    kind: str = "dense"
+    threshold: float = 0.05
+
+    def validate(self) -> None:
+        if self.kind not in REWARD_KINDS:
+            raise ConfigError(f"reward.kind must be one of {list(REWARD_KINDS)}, got {self.kind!r}")
+        _positive("reward.threshold", self.threshold)
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """A reaching task: an arm, a reward, and the episode length."""
+
+    arm: ArmSpec
+    reward: RewardSpec
+    max_steps: int = 50
+
+    @property
+    def task_id(self) -> str:
+        """Short id used in tables and cache keys, e.g. ``two_link-sparse``."""
+        return f"{self.arm.name}-{self.reward.kind}"
+
+    @property
+    def rounds_angles(self) -> bool:
+        return self.reward.kind in self.arm.round_angles
+
+    @property
+    def observation_size(self) -> int:
+        return 9 if self.arm.dof == 1 else 10
+
+    @property
+    def action_size(self) -> int:
+        return self.arm.dof
+
+    def validate(self) -> TaskSpec:
+        self.arm.validate()
+        self.reward.validate()
+        if self.max_steps < 1:
+            raise ConfigError(f"max_steps must be an integer >= 1, got {self.max_steps}")
+        if self.arm.obstacle is not None and self.reward.kind != "dense":
+            raise ConfigError(
+                f"reward={self.reward.kind} is not available for arm={self.arm.name} "
+                "(allowed: dense; the obstacle task is defined with a dense reward only)"
+            )
+        return self
+
+
+def _positive(key: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise ConfigError(f"{key} must be a finite number > 0, got {value!r}")
+
+
+def _non_negative(key: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+        raise ConfigError(f"{key} must be a finite number >= 0, got {value!r}")
+
+
+# --- presets (the reference tasks of environments.md) -------------------------------------------
+
+ONE_LINK_1M0 = ArmSpec(
+    name="one_link_1m0",
+    links=(LinkSpec(length=0.95, mass=6.75, com=0.50),),
+    torque_scale=(30.0,),
+    time_step=0.01,
+    target_radius=(0.96, 0.96),
+    round_angles=("dense",),
+)
+ONE_LINK_1M65 = ArmSpec(
+    name="one_link_1m65",
+    links=(LinkSpec(length=1.65, mass=11.475, com=0.80),),
+    torque_scale=(156.0,),
+    time_step=0.01,
+    target_radius=(1.66, 1.66),
+    round_angles=("dense",),
+)
+TWO_LINK = ArmSpec(
+    name="two_link",
+    links=(
+        LinkSpec(length=0.70, mass=5.0625, com=0.0, joint_damping=1.0),
+        LinkSpec(length=0.95, mass=6.75, com=0.0, joint_damping=1.0),
+    ),
+    torque_scale=(205.0, 100.0),
+    time_step=0.02,
+    target_radius=(0.35, 1.51),
+    round_angles=("dense", "sparse"),
+)
+TWO_LINK_OBSTACLE = replace(TWO_LINK, name="two_link_obstacle", obstacle=ObstacleSpec())
+
+ARMS: dict[str, ArmSpec] = {a.name: a for a in (ONE_LINK_1M0, ONE_LINK_1M65, TWO_LINK, TWO_LINK_OBSTACLE)}
+REWARDS: dict[str, RewardSpec] = {"dense": RewardSpec("dense"), "sparse": RewardSpec("sparse")}
+
+# The seven tasks of the study, in the order tables list them.
+STUDY_TASKS: tuple[tuple[str, str], ...] = (
+    ("one_link_1m0", "dense"),
+    ("one_link_1m65", "dense"),
+    ("two_link", "dense"),
+    ("two_link_obstacle", "dense"),
+    ("one_link_1m0", "sparse"),
+    ("one_link_1m65", "sparse"),
+    ("two_link", "sparse"),
+)
+
+
+def make_task(arm: str | ArmSpec, reward: str | RewardSpec = "dense", max_steps: int = 50) -> TaskSpec:
+    """Build and validate a task from preset names or specs.
+
+    Raises
+    ------
+    ConfigError
+        Unknown preset name or an invalid combination (e.g. a sparse obstacle task).
+    """
+    if isinstance(arm, str):
+        if arm not in ARMS:
+            raise ConfigError(f"arm must be one of {sorted(ARMS)}, got {arm!r}")
+        arm = ARMS[arm]
+    if isinstance(reward, str):
+        if reward not in REWARDS:
+            raise ConfigError(f"reward must be one of {sorted(REWARDS)}, got {reward!r}")
+        reward = REWARDS[reward]
+    return TaskSpec(arm=arm, reward=reward, max_steps=max_steps).validate()
+
+
+def task_from_id(task_id: str) -> TaskSpec:
+    """``'two_link-sparse'`` → the preset task."""
+    arm, sep, reward = task_id.rpartition("-")
+    if not sep:
+        raise ConfigError(f"task id must look like '<arm>-<reward>', got {task_id!r}")
+    return make_task(arm, reward)
+
+
+__all__ = [
+    "ARMS",
+    "REWARDS",
+    "STUDY_TASKS",
+    "ArmSpec",
+    "LinkSpec",
+    "ObstacleSpec",
+    "RewardSpec",
+    "TaskSpec",
+    "make_task",
+    "task_from_id",
+    "LINK_WIDTH",
+]

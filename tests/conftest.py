@@ -1,0 +1,29 @@
+"""Shared fixtures: compose the real Hydra config (shrunk where needed) into a temporary directory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from omegaconf import open_dict
+
+CONF_DIR = str(Path(__file__).resolve().parents[1] / "conf")
+
+
+@pytest.fixture
+def compose_config(tmp_path):
+    """``compose_config(*overrides)`` → the composed config with ``paths.outputs`` in ``tmp_path``."""
+
+    def _compose(*overrides: str):
+        GlobalHydra.instance().clear()
+        with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+            cfg = compose("config", overrides=list(overrides))
+        with open_dict(cfg):
+            if not any(o.startswith("paths.outputs=") for o in overrides):
+                cfg.paths.outputs = str(tmp_path / "outputs")
+        return cfg
+
+    yield _compose
+    GlobalHydra.instance().clear()
