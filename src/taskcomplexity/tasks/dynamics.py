@@ -117,8 +117,20 @@ def _two_link_step(p, q1, q2, u, qd2, tau1, tau2, dt):
     return q1 + dt * u, q2 + dt * qd2, u, qd2
 
 
+@numba.njit(cache=True, inline="always")
+def _near_block(p, obstacle, q1, q2):
+    """Whether the forearm's box may be in contact range of the block (a conservative test)."""
+    l1 = p[7]
+    ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
+    dx, dy = np.cos(q1 + q2), np.sin(q1 + q2)
+    rx, ry = obstacle[1] - ex, obstacle[2] - ey
+    t = min(max(rx * dx + ry * dy, obstacle[3]), obstacle[4])
+    px, py = rx - t * dx, ry - t * dy
+    return px * px + py * py < obstacle[5] * obstacle[5]
+
+
 @numba.njit(parallel=True, cache=True)
-def _advance(params, q, qd, torque, active, dt, substeps):
+def _advance(params, q, qd, torque, active, dt, substeps, obstacle, contact):
     n_env = q.shape[0]
     for e in numba.prange(n_env):
         if not active[e]:
@@ -132,9 +144,38 @@ def _advance(params, q, qd, torque, active, dt, substeps):
         else:
             a1, a2, u, v = q[e, 0], q[e, 1], qd[e, 0], qd[e, 1]
             a1, a2, u, v = _two_link_step(params, a1, a2, u, v, torque[e, 0], torque[e, 1], dt)
+            touched = obstacle[0] > 0 and _near_block(params, obstacle, a1, a2)
             for _ in range(substeps - 1):
                 a1, a2, u, v = _two_link_step(params, a1, a2, u, v, 0.0, 0.0, dt)
+                if obstacle[0] > 0 and not touched:
+                    touched = _near_block(params, obstacle, a1, a2)
             q[e, 0], q[e, 1], qd[e, 0], qd[e, 1] = a1, a2, u, v
+            contact[e] = touched
+
+
+NO_OBSTACLE = np.zeros(6)
+
+
+def contact_zone(task) -> np.ndarray:
+    """Kernel parameters of the block's contact zone: ``[enabled, ox, oy, t_min, t_max, radius]``.
+
+    The forearm box spans t ∈ [−overhang, length] along its axis from the elbow; the zone radius
+    bounds the box's half-diagonal section plus the block's half-diagonal plus PyBullet's contact
+    breaking threshold (0.02 m), so every physical contact of the two boxes is inside it.
+    """
+    from taskcomplexity.tasks.mechanics import BLOCK_FOOTPRINT
+    from taskcomplexity.tasks.spec import LINK_OVERHANG, LINK_WIDTH
+
+    obstacle = task.arm.obstacle
+    if obstacle is None:
+        return NO_OBSTACLE
+    ox, oy = obstacle.position
+    block_half_diagonal = obstacle.scale * BLOCK_FOOTPRINT / 2 * np.sqrt(2)
+    radius = LINK_WIDTH / 2 * np.sqrt(2) + block_half_diagonal + CONTACT_BREAKING_THRESHOLD + 0.005
+    return np.array([1.0, ox, oy, -LINK_OVERHANG, task.arm.links[1].length, radius])
+
+
+CONTACT_BREAKING_THRESHOLD = 0.02  # PyBullet's default, m
 
 
 def advance(
@@ -145,6 +186,8 @@ def advance(
     active: np.ndarray,
     time_step: float,
     substeps: int,
+    obstacle: np.ndarray = NO_OBSTACLE,
+    contact: np.ndarray | None = None,
 ) -> None:
     """Advance every active environment by one environment step, in place.
 
@@ -162,5 +205,14 @@ def advance(
         Physics time step, s.
     substeps : int
         Physics steps per environment step.
+    obstacle : ndarray (6,)
+        :func:`contact_zone` of the task (zeros: no obstacle).
+    contact : ndarray (B,), bool, optional
+        Set for every environment whose forearm entered the block's contact zone during the step:
+        PyBullet's contact solver may have acted there, which this contact-free model does not.
     """
-    _advance(dynamics, joint_angles, joint_velocities, torque, active, float(time_step), int(substeps))
+    if contact is None:
+        contact = np.zeros(joint_angles.shape[0], dtype=np.bool_)
+    _advance(
+        dynamics, joint_angles, joint_velocities, torque, active, float(time_step), int(substeps), obstacle, contact
+    )

@@ -19,7 +19,7 @@ try:  # torch is a hard dependency of the package, but keep this module importab
 except ImportError:  # pragma: no cover
     torch = None
 
-from taskcomplexity.tasks.spec import ArmSpec, TaskSpec
+from taskcomplexity.tasks.spec import LINK_WIDTH, ArmSpec, TaskSpec
 
 TWO_PI = 2.0 * math.pi
 
@@ -234,3 +234,58 @@ def reward_terms(task: TaskSpec, action, distance, upper_clearance=None, forearm
     reward = sum(terms.values())
     terms["success"] = success
     return reward, terms, collision
+
+
+# --- the obstacle's geometry as PyBullet's closest-point query sees it -------------------------
+
+# pybullet_data block.urdf is a 0.10 × 0.018 × 0.018 box; stood upright (rotated π/2 about y) its
+# footprint in the arm's plane is 0.018 × 0.018 before scaling.
+BLOCK_FOOTPRINT = 0.018
+# PyBullet's URDF importer gives every collision shape a 0.001 m margin: a box's closest distance is
+# measured between cores shrunk by the margin, minus both margins (boxes with rounded edges).
+COLLISION_MARGIN = 0.001
+
+
+def _point_to_box(px, py, half_x, half_y, xp):
+    """Distance from points (px, py) to the axis-aligned box [−half_x, half_x] × [−half_y, half_y]."""
+    dx = xp.clip(xp.abs(px) - half_x, 0.0, None)
+    dy = xp.clip(xp.abs(py) - half_y, 0.0, None)
+    return xp.sqrt(dx * dx + dy * dy)
+
+
+def upper_arm_clearance(task: TaskSpec, joint_angles):
+    """d₁: closest distance between link 1's box and the block in the plane, metres, clipped at 0.
+
+    Matches ``pybullet.getClosestPoints`` for disjoint boxes (both vertical ranges overlap, so the
+    3-D distance is the planar one): the distance between the margin-shrunk cores minus the margins.
+    Uses the raw (unrounded) shoulder angle, as the simulator does.
+
+    Parameters
+    ----------
+    joint_angles : array (..., 2)
+    """
+    xp = xp_of(joint_angles)
+    obstacle = task.arm.obstacle
+    link = task.arm.links[0]
+    ox, oy = obstacle.position
+    block_half = obstacle.scale * BLOCK_FOOTPRINT / 2 - COLLISION_MARGIN
+    # link 1 core, in its own frame: x ∈ [−overhang, length] shrunk by the margin, centred at cx
+    half_x = link.box_length / 2 - COLLISION_MARGIN
+    half_y = LINK_WIDTH / 2 - COLLISION_MARGIN
+    cx = link.box_origin
+    q = joint_angles[..., 0]
+    c, s = xp.cos(q), xp.sin(q)
+    best = None
+    for sx in (-1.0, 1.0):
+        for sy in (-1.0, 1.0):
+            # a block corner, in link 1's frame
+            bx, by = ox + sx * block_half, oy + sy * block_half
+            lx, ly = c * bx + s * by - cx, -s * bx + c * by
+            d_block_corner = _point_to_box(lx, ly, half_x, half_y, xp)
+            # a link corner, in the block's (axis-aligned) frame
+            ax, ay = cx + sx * half_x, sy * half_y
+            wx, wy = c * ax - s * ay - ox, s * ax + c * ay - oy
+            d_link_corner = _point_to_box(wx, wy, block_half, block_half, xp)
+            pair = xp.minimum(d_block_corner, d_link_corner)
+            best = pair if best is None else xp.minimum(best, pair)
+    return xp.clip(best - 2 * COLLISION_MARGIN, 0.0, None)

@@ -47,7 +47,8 @@ class ReachingEnv(gym.Env):
 
     ## Starting state
     q ~ U[0, 2π)ⁿ, q̇ = 0, target angle ~ U[0, 2π), target radius ~ U[low, high] (1-link: fixed R).
-    ``reset(options={"joint_angles": [...], "target": [radius, angle]})`` sets an exact state.
+    ``reset(options={"joint_angles": [...], "target": [radius, angle]})`` sets an exact state
+    (``"joint_velocities"`` too, default 0).
 
     ## Episode end
     Terminated when d < 0.05 or on an obstacle collision; truncated after 50 steps (by the
@@ -138,11 +139,13 @@ class ReachingEnv(gym.Env):
         if "joint_angles" in options or "target" in options:
             q = np.asarray(options["joint_angles"], dtype=np.float64).reshape(self.task.arm.dof)
             target = np.asarray(options["target"], dtype=np.float64).reshape(2)
+            qd = np.asarray(options.get("joint_velocities", np.zeros_like(q)), dtype=np.float64).reshape(q.shape)
         else:
             q, target = mechanics.initial_state(self.task.arm, self.np_random.random(4))
+            qd = np.zeros_like(q)
         self._target = target
-        for j, angle in zip(self._joints, q, strict=True):
-            self.client.resetJointState(self._arm_id, j, float(angle), 0.0)
+        for j, angle, velocity in zip(self._joints, q, qd, strict=True):
+            self.client.resetJointState(self._arm_id, j, float(angle), float(velocity))
         observation, distance, _, _ = self._observe()
         return observation, {"distance": float(distance)}
 

@@ -1,0 +1,93 @@
+"""RWG throughput: the batched backend against the PyBullet reference, side by side in one run.
+
+    python bench/bench_rwg.py                 # side-by-side ratio + one task at paper scale
+    python bench/bench_rwg.py --all-tasks     # also every study task at paper scale
+
+Prints environment steps per second for each backend on the same work (same policies, same
+initial states), their ratio, and the wall time and peak resident memory of one task at the paper's
+full scale (N = 10⁴ policies × M = 500 episodes) on the batched backend. Medians of repeats.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import time
+
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings, run_rwg
+from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+
+
+def throughput(task, settings, backend, repeats):
+    rates = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        chunk = run_rwg(task, NetworkSpec(), PriorSpec(), settings, backend)
+        rates.append(chunk.steps.sum() / (time.perf_counter() - started))
+    return statistics.median(rates), int(chunk.steps.sum())
+
+
+FULL_SCALE = """
+import json, resource, time
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings, run_rwg
+from taskcomplexity.tasks.spec import make_task
+task = make_task({arm!r}, {reward!r})
+run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=4, episodes=4), "batched")  # compile
+started = time.perf_counter()
+chunk = run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies={n}, episodes={m}, seed=0), "batched")
+seconds = time.perf_counter() - started
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+print(json.dumps({{"seconds": seconds, "peak_gb": peak, "steps": int(chunk.steps.sum()), "handoffs": chunk.handoffs}}))
+"""
+
+
+def full_scale(arm, reward, n, m):
+    out = subprocess.run(
+        [sys.executable, "-c", FULL_SCALE.format(arm=arm, reward=reward, n=n, m=m)],
+        capture_output=True, text=True, check=True,
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--policies", type=int, default=10_000)
+    parser.add_argument("--episodes", type=int, default=500)
+    parser.add_argument("--all-tasks", action="store_true", help="every study task at full scale")
+    args = parser.parse_args()
+
+    print("RWG throughput, same work on both backends (mlp32, N(0, I); environment steps per second)")
+    print(f"{'task':<26}{'pybullet':>12}{'batched':>14}{'ratio':>10}")
+    ratios = []
+    for arm, reward in (("one_link_1m0", "dense"), ("two_link", "sparse")):
+        task = make_task(arm, reward)
+        small = RWGSettings(policies=8, episodes=8, seed=1)
+        run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=2, episodes=2), "batched")  # compile
+        slow, _ = throughput(task, small, "pybullet", args.repeats)
+        fast, _ = throughput(task, RWGSettings(policies=400, episodes=100, seed=1), "batched", args.repeats)
+        ratios.append(fast / slow)
+        print(f"{task.task_id:<26}{slow:>12,.0f}{fast:>14,.0f}{fast / slow:>9.0f}×")
+    print(f"median ratio batched / pybullet: {statistics.median(ratios):.0f}×  (target ≥ 300×)")
+
+    tasks = STUDY_TASKS if args.all_tasks else (("two_link", "dense"),)
+    print(f"\nfull scale on the batched backend: N = {args.policies:,} × M = {args.episodes} per task")
+    print(f"{'task':<26}{'seconds':>10}{'peak GB':>10}{'env steps':>16}{'steps/s':>14}{'hand-overs':>12}")
+    total = 0.0
+    for arm, reward in tasks:
+        r = full_scale(arm, reward, args.policies, args.episodes)
+        total += r["seconds"]
+        print(f"{arm + '-' + reward:<26}{r['seconds']:>10.1f}{r['peak_gb']:>10.2f}{r['steps']:>16,}"
+              f"{r['steps'] / r['seconds']:>14,.0f}{r['handoffs']:>12,}")
+    if args.all_tasks:
+        print(f"all {len(tasks)} tasks: {total / 60:.1f} min  (target ≤ 10 min)")
+    print("targets: one task ≤ 60 s and ≤ 4 GB peak resident memory")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,101 @@
+"""Task-complexity estimators on a return matrix of random policies.
+
+Every function takes ``returns``, a float array of shape (N, M): row n is policy θₙ, column e is
+episode e (N, M >= 2, all finite). Entropies and mutual informations are in nats. The library is
+pure numpy/scipy/scikit-learn and prints nothing.
+
+Modules
+-------
+statistics   per-policy statistics and the normalised random-sampling score
+histogram    equal-width binning and sparse per-policy histograms
+pic          Policy Information Capacity (histogram estimator) and its reference implementation
+temperature  the deterministic temperature search of POIC
+poic         Policy-Optimal Information Capacity and the MI(λ) curve
+bootstrap    fast bootstrap of PIC and POIC over policies
+batches      batch estimates and Welch's t-tests between tasks
+diagnostics  permutation null, bins and subsample sweeps, Miller–Madow and nearest-neighbour MI
+verdict      known task relations and the agreement of each metric with them
+"""
+
+from taskcomplexity.metrics.batches import (
+    WelchResult,
+    batch_estimates,
+    format_welch_matrix,
+    welch_matrix,
+    welch_test,
+)
+from taskcomplexity.metrics.bootstrap import (
+    bootstrap,
+    bootstrap_indices,
+    bootstrap_multiplicities,
+    summarise_bootstrap,
+)
+from taskcomplexity.metrics.diagnostics import (
+    KNNMIResult,
+    permutation_null,
+    pic_bins_sweep,
+    pic_knn,
+    pic_miller_madow,
+    pic_subsample_sweep,
+    summarise_null,
+)
+from taskcomplexity.metrics.histogram import PolicyBinCounts, bin_edges, plugin_entropy, policy_bin_counts
+from taskcomplexity.metrics.pic import PICResult, pic, pic_reference
+from taskcomplexity.metrics.poic import POICResult, mutual_information_curve, poic
+from taskcomplexity.metrics.statistics import (
+    ScoreSummary,
+    policy_statistics,
+    random_sampling_score,
+    validate_returns,
+)
+from taskcomplexity.metrics.verdict import (
+    RELATIONS,
+    TASKS,
+    TOTAL_ORDERS,
+    Relation,
+    known_relations,
+    verdict,
+    verdict_by_relation,
+    verdict_summary,
+)
+
+__all__ = [
+    "KNNMIResult",
+    "PICResult",
+    "POICResult",
+    "PolicyBinCounts",
+    "RELATIONS",
+    "Relation",
+    "ScoreSummary",
+    "TASKS",
+    "TOTAL_ORDERS",
+    "WelchResult",
+    "batch_estimates",
+    "bin_edges",
+    "bootstrap",
+    "bootstrap_indices",
+    "bootstrap_multiplicities",
+    "format_welch_matrix",
+    "known_relations",
+    "mutual_information_curve",
+    "permutation_null",
+    "pic",
+    "pic_bins_sweep",
+    "pic_knn",
+    "pic_miller_madow",
+    "pic_reference",
+    "pic_subsample_sweep",
+    "plugin_entropy",
+    "poic",
+    "policy_bin_counts",
+    "policy_statistics",
+    "random_sampling_score",
+    "summarise_bootstrap",
+    "summarise_null",
+    "validate_returns",
+    "verdict",
+    "verdict_by_relation",
+    "verdict_summary",
+    "welch_matrix",
+    "welch_test",
+]

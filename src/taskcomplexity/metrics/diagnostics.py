@@ -1,0 +1,361 @@
+"""Diagnostics of the PIC estimator (``metrics.md`` § Beyond the paper).
+
+The histogram PIC with B = 10⁵ bins is dominated by estimation bias on continuous returns. These
+functions make that visible for a task: a permutation null (true MI = 0), sweeps over the number of
+bins and over policy and episode subsamples, a bias-corrected estimator (Miller–Madow) and one that
+is not histogram-based (nearest-neighbour MI between a discrete and a continuous variable).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import sklearn.feature_selection
+
+from taskcomplexity.metrics._validation import check_bins, check_int, check_seed, validate_returns
+from taskcomplexity.metrics.histogram import bin_edges, plugin_entropy, policy_bin_counts
+from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
+from taskcomplexity.metrics.poic import poic
+from taskcomplexity.metrics.temperature import (
+    DEFAULT_GRID_POINTS,
+    DEFAULT_REFINE_PEAKS,
+    DEFAULT_REFINE_POINTS,
+    DEFAULT_TEMPERATURE_RANGE,
+    TemperatureLattice,
+)
+
+DEFAULT_BINS_SWEEP = (10, 100, 1000, 10_000, 100_000)
+"""Numbers of bins of :func:`pic_bins_sweep`."""
+
+
+@dataclass(frozen=True)
+class KNNMIResult:
+    """Nearest-neighbour estimate of the mutual information between policy and return.
+
+    Attributes
+    ----------
+    mi : float
+        Estimated I(Θ; R) in nats (clipped at 0 by scikit-learn); at most ln(policies).
+    policies : int
+        Policies in the subsample the estimate used.
+    episodes : int
+        Episodes per policy in the subsample.
+    n_neighbors : int
+        Neighbours k of the estimator.
+    """
+
+    mi: float
+    policies: int
+    episodes: int
+    n_neighbors: int
+
+
+def permutation_null(
+    returns: object,
+    *,
+    seed: int,
+    repeats: int = 10,
+    bins: int = DEFAULT_BINS,
+    temperature_range: tuple[float, float] = DEFAULT_TEMPERATURE_RANGE,
+    grid_points: int = DEFAULT_GRID_POINTS,
+    refine_points: int = DEFAULT_REFINE_POINTS,
+    refine_peaks: int = DEFAULT_REFINE_PEAKS,
+    optimal_return: float | None = None,
+) -> pd.DataFrame:
+    """PIC and POIC of the returns permuted across policies, where the true MI is 0.
+
+    Each repeat shuffles all N·M returns uniformly and reshapes them to (N, M), which keeps the
+    pooled returns (and so the bin edges and S*) and destroys any dependence on the policy.
+
+    Parameters
+    ----------
+    returns : array_like, shape (N, M)
+        Episode returns; row n is policy n.
+    seed : int
+        Seed of the :class:`numpy.random.Generator` drawing the permutations.
+    repeats : int, default 10
+        Number of permutations.
+    bins : int, default 100_000
+        Histogram bins of PIC.
+    temperature_range, grid_points, refine_points, refine_peaks, optimal_return
+        The POIC search (see :func:`~taskcomplexity.metrics.poic.poic`).
+
+    Returns
+    -------
+    pandas.DataFrame, one row per repeat
+        ``repeat``, ``pic``, ``h_r``, ``h_r_given_theta``, ``poic``, ``temperature`` (nats).
+        Summarise with :func:`summarise_null`.
+    """
+    returns = validate_returns(returns)
+    repeats = check_int(repeats, "repeats", minimum=1)
+    bins = check_bins(bins)
+    TemperatureLattice.from_options(temperature_range, grid_points, refine_points, refine_peaks)
+    rng = np.random.default_rng(check_seed(seed))
+    rows = []
+    for repeat in range(repeats):
+        shuffled = rng.permutation(returns.ravel()).reshape(returns.shape)
+        estimate = pic(shuffled, bins=bins)
+        found = poic(
+            shuffled,
+            temperature_range=temperature_range,
+            grid_points=grid_points,
+            refine_points=refine_points,
+            refine_peaks=refine_peaks,
+            optimal_return=optimal_return,
+        )
+        rows.append(
+            {
+                "repeat": repeat,
+                "pic": estimate.pic,
+                "h_r": estimate.h_r,
+                "h_r_given_theta": estimate.h_r_given_theta,
+                "poic": found.poic,
+                "temperature": found.temperature,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def summarise_null(null: pd.DataFrame, observed: Mapping[str, float]) -> pd.DataFrame:
+    """Compare observed estimates with their permutation null.
+
+    Parameters
+    ----------
+    null : pandas.DataFrame
+        Draws of :func:`permutation_null` (at least 2 repeats).
+    observed : mapping of str to float
+        Observed value of each metric to compare, e.g. ``{"pic": 4.6, "poic": 0.018}``.
+
+    Returns
+    -------
+    pandas.DataFrame, one row per metric
+        ``metric``, ``observed``, ``null_mean``, ``null_sd`` (ddof 1), ``excess`` (observed minus
+        null mean), ``z`` (excess in null standard deviations; inf when the null sd is 0).
+    """
+    missing = [metric for metric in observed if metric not in null.columns]
+    if missing:
+        raise ValueError(f"observed must name columns of null ({', '.join(null.columns)}), got {missing}")
+    if len(null) < 2:
+        raise ValueError(f"null must hold at least 2 repeats, got {len(null)}")
+    rows = []
+    for metric, value in observed.items():
+        draws = null[metric].to_numpy(dtype=np.float64)
+        mean, sd = float(draws.mean()), float(draws.std(ddof=1))
+        excess = float(value) - mean
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = float(np.divide(excess, sd))
+        rows.append(
+            {
+                "metric": metric,
+                "observed": float(value),
+                "null_mean": mean,
+                "null_sd": sd,
+                "excess": excess,
+                "z": z,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def pic_bins_sweep(returns: object, *, bins: Sequence[int] = DEFAULT_BINS_SWEEP) -> pd.DataFrame:
+    """Histogram PIC and its entropies for several numbers of bins.
+
+    Parameters
+    ----------
+    returns : array_like, shape (N, M)
+        Episode returns; row n is policy n.
+    bins : sequence of int, default (10, 100, 1000, 10_000, 100_000)
+        Numbers of bins, each >= 2.
+
+    Returns
+    -------
+    pandas.DataFrame, one row per number of bins
+        ``bins``, ``pic``, ``h_r``, ``h_r_given_theta``, ``pic_miller_madow`` (nats).
+    """
+    returns = validate_returns(returns)
+    counts = [check_bins(b) for b in _non_empty(bins, "bins")]
+    rows = []
+    for b in counts:
+        plugin, corrected = pic(returns, bins=b), pic_miller_madow(returns, bins=b)
+        rows.append(
+            {
+                "bins": b,
+                "pic": plugin.pic,
+                "h_r": plugin.h_r,
+                "h_r_given_theta": plugin.h_r_given_theta,
+                "pic_miller_madow": corrected.pic,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def pic_subsample_sweep(
+    returns: object,
+    *,
+    seed: int,
+    policies: Sequence[int] | None = None,
+    episodes: Sequence[int] | None = None,
+    bins: int = DEFAULT_BINS,
+) -> pd.DataFrame:
+    """Histogram PIC on nested random subsamples of policies and episodes.
+
+    One random order of the policies and one of the episodes is drawn; the subsample (n, m) takes
+    the first n policies and the first m episodes of those orders, so subsamples are nested.
+
+    Parameters
+    ----------
+    returns : array_like, shape (N, M)
+        Episode returns; row n is policy n.
+    seed : int
+        Seed of the :class:`numpy.random.Generator` drawing the two orders.
+    policies : sequence of int, optional
+        Subsample sizes n, each in ``2 … N``; default N/8, N/4, N/2 and N (those >= 2).
+    episodes : sequence of int, optional
+        Subsample sizes m, each in ``2 … M``; default M/8, M/4, M/2 and M (those >= 2).
+    bins : int, default 100_000
+        Histogram bins.
+
+    Returns
+    -------
+    pandas.DataFrame, one row per (n, m)
+        ``policies``, ``episodes``, ``pic``, ``h_r``, ``h_r_given_theta`` (nats).
+    """
+    returns = validate_returns(returns)
+    bins = check_bins(bins)
+    n_policies, n_episodes = returns.shape
+    policies = _subsample_sizes(policies, n_policies, "policies")
+    episodes = _subsample_sizes(episodes, n_episodes, "episodes")
+    rng = np.random.default_rng(check_seed(seed))
+    policy_order, episode_order = rng.permutation(n_policies), rng.permutation(n_episodes)
+    rows = []
+    for n in policies:
+        for m in episodes:
+            estimate = pic(returns[np.ix_(policy_order[:n], episode_order[:m])], bins=bins)
+            rows.append(
+                {
+                    "policies": n,
+                    "episodes": m,
+                    "pic": estimate.pic,
+                    "h_r": estimate.h_r,
+                    "h_r_given_theta": estimate.h_r_given_theta,
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def pic_miller_madow(returns: object, *, bins: int = DEFAULT_BINS) -> PICResult:
+    """Histogram PIC with the Miller–Madow bias correction of every entropy.
+
+    Each plug-in entropy of n samples occupying K bins gains ``(K - 1) / (2 n)``: H(R) with the
+    N·M pooled returns, and each Hₙ with policy n's M returns, on the same edges as :func:`pic`.
+
+    Parameters
+    ----------
+    returns : array_like, shape (N, M)
+        Episode returns; row n is policy n.
+    bins : int, default 100_000
+        Histogram bins.
+
+    Returns
+    -------
+    PICResult
+        Corrected PIC, H(R) and H(R|Θ) in nats; all 0 when every return is equal.
+    """
+    returns = validate_returns(returns)
+    bins = check_bins(bins)
+    low, high = float(returns.min()), float(returns.max())
+    if low == high:
+        return PICResult(pic=0.0, h_r=0.0, h_r_given_theta=0.0, bins=bins)
+    n_policies, n_episodes = returns.shape
+    counts = policy_bin_counts(returns, bin_edges(low, high, bins))
+    pooled = counts.pooled_counts()
+    h_r = plugin_entropy(pooled) + float(np.count_nonzero(pooled) - 1) / (2 * n_policies * n_episodes)
+    h_n = counts.policy_entropies() + (counts.occupied_bins() - 1) / (2 * n_episodes)
+    h_r_given_theta = float(h_n.mean())
+    return PICResult(pic=h_r - h_r_given_theta, h_r=h_r, h_r_given_theta=h_r_given_theta, bins=bins)
+
+
+def pic_knn(
+    returns: object,
+    *,
+    seed: int,
+    n_neighbors: int = 3,
+    max_samples: int = 50_000,
+    episodes_per_policy: int = 50,
+) -> KNNMIResult:
+    """Nearest-neighbour estimate of I(Θ; R) between the policy label and the return.
+
+    Uses the estimator for a discrete and a continuous variable of Ross (2014) as implemented by
+    :func:`sklearn.feature_selection.mutual_info_classif` (``discrete_features=False``).
+
+    Parameters
+    ----------
+    returns : array_like, shape (N, M)
+        Episode returns; row n is policy n.
+    seed : int
+        Seeds both the subsample and scikit-learn's ``random_state``; the result is deterministic.
+    n_neighbors : int, default 3
+        Neighbours k; every policy keeps at least k + 1 episodes.
+    max_samples : int, default 50_000
+        Largest number of (policy, episode) samples used; the estimator costs O(n log n).
+    episodes_per_policy : int, default 50
+        Episodes kept per policy before the policy count is reduced (at most M).
+
+    Returns
+    -------
+    KNNMIResult
+        The estimate and the subsample it used.
+
+    Notes
+    -----
+    Subsample: m = min(M, episodes_per_policy) episodes per policy and
+    n = min(N, max_samples // m) policies, both chosen uniformly without replacement. Fewer policies
+    change the estimand (the MI over n policies is at most ln n), so compare tasks at equal n.
+
+    Ties: scikit-learn scales the returns to unit variance and adds noise of relative size 1e-10
+    before the neighbour search. For integer-valued (sparse) returns this orders tied values at
+    random, label-independently, so the estimate targets I(Θ; R) of the discrete return; a fixed
+    ``random_state`` makes the noise, and the result, reproducible.
+    """
+    returns = validate_returns(returns)
+    rng = np.random.default_rng(check_seed(seed))
+    n_neighbors = check_int(n_neighbors, "n_neighbors", minimum=1)
+    n_policies, n_episodes = returns.shape
+    episodes_per_policy = check_int(episodes_per_policy, "episodes_per_policy", minimum=n_neighbors + 1)
+    m = min(n_episodes, episodes_per_policy)
+    if m < n_neighbors + 1:
+        raise ValueError(f"n_neighbors must be at most M - 1 = {n_episodes - 1}, got {n_neighbors}")
+    max_samples = check_int(max_samples, "max_samples", minimum=2 * m)
+    n = min(n_policies, max_samples // m)
+    policies = np.sort(rng.choice(n_policies, size=n, replace=False))
+    episodes = np.sort(rng.choice(n_episodes, size=m, replace=False))
+    sample = returns[np.ix_(policies, episodes)]
+    labels = np.repeat(np.arange(n), m)
+    mi = sklearn.feature_selection.mutual_info_classif(
+        sample.reshape(-1, 1),
+        labels,
+        discrete_features=False,
+        n_neighbors=n_neighbors,
+        random_state=int(rng.integers(2**31 - 1)),
+    )
+    return KNNMIResult(mi=float(mi[0]), policies=n, episodes=m, n_neighbors=n_neighbors)
+
+
+def _non_empty(values: Sequence[int], name: str) -> list:
+    values = list(np.atleast_1d(values).tolist()) if values is not None else []
+    if not values:
+        raise ValueError(f"{name} must be a non-empty sequence of integers, got {values!r}")
+    return values
+
+
+def _subsample_sizes(sizes: Sequence[int] | None, total: int, name: str) -> list[int]:
+    if sizes is None:
+        return sorted({size for size in (total // 8, total // 4, total // 2, total) if size >= 2})
+    sizes = _non_empty(sizes, name)
+    for size in sizes:
+        if isinstance(size, bool) or not isinstance(size, int) or not 2 <= size <= total:
+            raise ValueError(f"{name} must be integers between 2 and {total}, got {sizes!r}")
+    return [int(size) for size in sizes]

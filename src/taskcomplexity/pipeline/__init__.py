@@ -1,0 +1,1 @@
+"""Stage keys, the content-addressed cache, atomic writes and manifests."""

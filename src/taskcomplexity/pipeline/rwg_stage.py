@@ -1,0 +1,212 @@
+"""The RWG stage: (task, network, prior, N, M, seed, backend) → ``returns.parquet`` in the cache.
+
+Work is split into chunks of policies; each finished chunk is saved under the key's scratch
+directory, so an interrupted run resumes from its completed chunks. With ``shards > 1`` this job
+computes one policy range; whichever job finds every shard present merges them into the artefact a
+single job would have written (same key, same returns).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from taskcomplexity.errors import ArtefactError
+from taskcomplexity.pipeline.cache import Artefact, Cache
+from taskcomplexity.pipeline.keys import canonical, stage_key
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
+from taskcomplexity.tasks.spec import TaskSpec
+
+log = logging.getLogger(__name__)
+
+STAGE = "rwg"
+VERSION = 1
+RETURNS = "returns.parquet"
+
+
+@dataclass(frozen=True)
+class RWGRequest:
+    """Everything that determines a return matrix (plus how to split the work)."""
+
+    task: TaskSpec
+    network: NetworkSpec
+    prior: PriorSpec
+    settings: RWGSettings
+    backend: str = "batched"
+
+    def identity(self) -> dict:
+        """The config subset the key hashes: sharding and chunking do not change the returns."""
+        return {
+            "task": canonical(self.task),
+            "network": canonical(self.network),
+            "prior": canonical(self.prior),
+            "policies": self.settings.policies,
+            "episodes": self.settings.episodes,
+            "seed": self.settings.seed,
+            "backend": self.backend,
+        }
+
+    @property
+    def key(self) -> str:
+        return stage_key(STAGE, VERSION, self.identity())
+
+    @property
+    def label(self) -> str:
+        s = self.settings
+        hidden = "x".join(map(str, self.network.hidden))
+        bias = "+b" if self.network.bias else ""
+        return f"{self.task.task_id} mlp{hidden}{bias} {self.prior.kind} N={s.policies} M={s.episodes} seed={s.seed}"
+
+
+def _chunk_file(scratch: Path, start: int, stop: int) -> Path:
+    return scratch / f"chunk-{start:07d}-{stop:07d}.npz"
+
+
+def _save_chunk(path: Path, chunk: ReturnChunk) -> None:
+    tmp = path.with_name(path.name + ".tmp.npz")
+    np.savez(tmp, policy=chunk.policy, returns=chunk.returns, steps=chunk.steps, success=chunk.success,
+             handoffs=np.int64(chunk.handoffs))
+    tmp.replace(path)
+
+
+def _load_chunk(path: Path) -> ReturnChunk | None:
+    try:
+        with np.load(path) as z:
+            return ReturnChunk(z["policy"], z["returns"], z["steps"], z["success"], int(z["handoffs"]))
+    except Exception as err:  # noqa: BLE001 - a damaged chunk is recomputed
+        log.warning("discarding unreadable chunk %s (%s)", path, err)
+        path.unlink(missing_ok=True)
+        return None
+
+
+def _shard_file(scratch: Path, shard: int, shards: int) -> Path:
+    return scratch / f"shard-{shard:04d}-of-{shards:04d}.npz"
+
+
+def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bool = False) -> ReturnChunk:
+    """Compute (or reuse) one shard's returns, resuming from saved chunks."""
+    from taskcomplexity.rwg import chunks
+
+    settings = RWGSettings(**{**asdict(request.settings), "shard": shard})
+    scratch = cache.scratch(STAGE, request.key)
+    shard_path = _shard_file(scratch, shard, settings.shards)
+    if shard_path.exists():
+        done = _load_chunk(shard_path)
+        if done is not None:
+            return done
+    completed = {}
+    for start, stop in chunks(request.task, request.network, settings, request.backend):
+        path = _chunk_file(scratch, start, stop)
+        if path.exists() and (chunk := _load_chunk(path)) is not None:
+            completed[(start, stop)] = chunk
+    if completed:
+        log.info("resuming %s from %d saved chunks", request.label, len(completed))
+    result = run_rwg(
+        request.task,
+        request.network,
+        request.prior,
+        settings,
+        request.backend,
+        completed=completed,
+        on_chunk=lambda key, chunk: _save_chunk(_chunk_file(scratch, *key), chunk),
+        progress=progress,
+    )
+    _save_chunk(shard_path, result)
+    for start, stop in chunks(request.task, request.network, settings, request.backend):
+        _chunk_file(scratch, start, stop).unlink(missing_ok=True)
+    return result
+
+
+def missing_shards(cache: Cache, request: RWGRequest) -> list[int]:
+    scratch = cache.root / STAGE / f".partial-{request.key}"
+    shards = request.settings.shards
+    return [i for i in range(shards) if not _shard_file(scratch, i, shards).exists()]
+
+
+def returns_frame(chunk: ReturnChunk) -> pd.DataFrame:
+    """Tidy table: one row per (policy, episode)."""
+    n_pol, n_ep = chunk.returns.shape
+    return pd.DataFrame(
+        {
+            "policy": np.repeat(chunk.policy.astype(np.int32), n_ep),
+            "episode": np.tile(np.arange(n_ep, dtype=np.int32), n_pol),
+            "return": chunk.returns.ravel(),
+            "steps": chunk.steps.ravel().astype(np.int16),
+            "success": chunk.success.ravel(),
+        }
+    )
+
+
+def run_rwg_stage(
+    cache: Cache,
+    request: RWGRequest,
+    *,
+    force: bool = False,
+    progress: bool = False,
+    compute_missing: bool = True,
+) -> tuple[Artefact | None, bool]:
+    """Produce the returns artefact of ``request`` (or this job's shard of it).
+
+    Returns
+    -------
+    (artefact, hit)
+        ``artefact`` is None when this job finished its shard but others are still missing and
+        ``compute_missing`` is False.
+    """
+    request.settings.validate()
+    key = request.key
+    if not force and (found := cache.lookup(STAGE, key)) is not None:
+        log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
+        return found, True
+    started = time.time()
+    compute_shard(cache, request, request.settings.shard, progress=progress)
+    missing = missing_shards(cache, request)
+    if missing and not compute_missing:
+        log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard,
+                 request.settings.shards, request.label, missing)
+        return None, False
+    for shard in missing:
+        compute_shard(cache, request, shard, progress=progress)
+
+    def write(directory: Path) -> dict:
+        scratch = cache.scratch(STAGE, key)
+        parts = [_load_chunk(_shard_file(scratch, i, request.settings.shards)) for i in range(request.settings.shards)]
+        if any(p is None for p in parts):
+            raise ArtefactError(f"rwg {key}: a shard became unreadable while merging; rerun to recompute it")
+        merged = ReturnChunk.concatenate(parts)
+        returns_frame(merged).to_parquet(directory / RETURNS, index=False)
+        seconds = time.time() - started
+        return {
+            "label": request.label,
+            "policies": request.settings.policies,
+            "episodes": request.settings.episodes,
+            "seed": request.settings.seed,
+            "backend": request.backend,
+            "env_steps": int(merged.steps.sum()),
+            "handoffs": merged.handoffs,
+            "compute_seconds": round(seconds, 3),
+        }
+
+    artefact, hit = cache.get_or_compute(STAGE, key, write, config=request.identity(), force=force)
+    import shutil
+
+    shutil.rmtree(cache.root / STAGE / f".partial-{key}", ignore_errors=True)
+    return artefact, hit
+
+
+def load_returns(artefact: Artefact) -> np.ndarray:
+    """The (N, M) return matrix of an RWG artefact."""
+    frame = pd.read_parquet(artefact.file(RETURNS), columns=["policy", "episode", "return"])
+    n_pol = int(frame["policy"].max()) + 1
+    n_ep = int(frame["episode"].max()) + 1
+    if len(frame) != n_pol * n_ep:
+        raise ArtefactError(f"{artefact.file(RETURNS)}: {len(frame)} rows, expected {n_pol} × {n_ep}")
+    matrix = np.empty((n_pol, n_ep))
+    matrix[frame["policy"].to_numpy(), frame["episode"].to_numpy()] = frame["return"].to_numpy()
+    return matrix

@@ -1,0 +1,289 @@
+"""Random Weight Guessing (Algorithm 1): N random policies × M episodes → the return matrix S.
+
+S[n, e] is the undiscounted return of policy θₙ in episode e. Policy n's weights and episode e's
+initial state come from streams keyed by (seed, n) and (seed, n, e) (:mod:`taskcomplexity.seeding`),
+so S is a pure function of (task, network, prior, N, M, seed): the same for any chunking, sharding
+or backend (up to the backends' documented tolerance).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec, sample_policies, select_policy
+from taskcomplexity.seeding import episode_uniforms
+from taskcomplexity.tasks import mechanics
+from taskcomplexity.tasks.spec import TaskSpec
+
+BACKENDS = ("batched", "pybullet")
+
+
+@dataclass(frozen=True)
+class RWGSettings:
+    """Settings of one RWG run.
+
+    Attributes
+    ----------
+    policies, episodes : int
+        N and M (both >= 2).
+    seed : int
+        Run seed (>= 0).
+    chunk_policies : int
+        Policies simulated together; 0 chooses from ``chunk_memory_mb``.
+    chunk_memory_mb : int
+        Working-memory budget of one chunk on the batched backend, MB.
+    shard, shards : int
+        This job simulates policy range ``shard`` of ``shards`` equal ranges.
+    """
+
+    policies: int = 1000
+    episodes: int = 100
+    seed: int = 0
+    chunk_policies: int = 0
+    chunk_memory_mb: int = 512
+    shard: int = 0
+    shards: int = 1
+
+    def validate(self) -> None:
+        if self.policies < 2:
+            raise ConfigError(f"rwg.policies must be an integer >= 2 (N), got {self.policies}")
+        if self.episodes < 2:
+            raise ConfigError(f"rwg.episodes must be an integer >= 2 (M), got {self.episodes}")
+        if self.seed < 0:
+            raise ConfigError(f"rwg.seed must be a non-negative integer, got {self.seed}")
+        if self.chunk_policies < 0:
+            raise ConfigError(f"rwg.chunk_policies must be >= 0 (0 = automatic), got {self.chunk_policies}")
+        if self.chunk_memory_mb < 1:
+            raise ConfigError(f"rwg.chunk_memory_mb must be >= 1, got {self.chunk_memory_mb}")
+        if not 1 <= self.shards <= self.policies:
+            raise ConfigError(f"rwg.shards must be in [1, rwg.policies={self.policies}], got {self.shards}")
+        if not 0 <= self.shard < self.shards:
+            raise ConfigError(
+                f"rwg.shard must be in [0, {self.shards - 1}] (rwg.shards={self.shards}), got {self.shard}"
+            )
+
+    def shard_range(self, shard: int | None = None) -> tuple[int, int]:
+        """Policy index range [start, stop) of a shard (this one by default)."""
+        shard = self.shard if shard is None else shard
+        bounds = np.linspace(0, self.policies, self.shards + 1).round().astype(int)
+        return int(bounds[shard]), int(bounds[shard + 1])
+
+
+@dataclass
+class ReturnChunk:
+    """Results of a range of policies.
+
+    Attributes
+    ----------
+    policy : ndarray (P,) int
+        Policy indices n.
+    returns : ndarray (P, M) float64
+        Undiscounted episode returns.
+    steps : ndarray (P, M) int
+        Episode lengths (environment steps).
+    success : ndarray (P, M) bool
+        Whether the episode reached d < threshold.
+    handoffs : int
+        Episodes finished on the PyBullet reference after an obstacle contact (batched backend).
+    """
+
+    policy: np.ndarray
+    returns: np.ndarray
+    steps: np.ndarray
+    success: np.ndarray
+    handoffs: int = 0
+
+    @staticmethod
+    def concatenate(chunks: list[ReturnChunk]) -> ReturnChunk:
+        chunks = sorted(chunks, key=lambda c: int(c.policy[0]))
+        return ReturnChunk(
+            policy=np.concatenate([c.policy for c in chunks]),
+            returns=np.concatenate([c.returns for c in chunks]),
+            steps=np.concatenate([c.steps for c in chunks]),
+            success=np.concatenate([c.success for c in chunks]),
+            handoffs=sum(c.handoffs for c in chunks),
+        )
+
+
+def initial_states(task: TaskSpec, seed: int, policies: np.ndarray, episodes: int):
+    """Reset states of every (policy, episode) pair.
+
+    Returns
+    -------
+    joint_angles : ndarray (P, M, dof)
+    target : ndarray (P, M, 2)
+    """
+    n = np.asarray(policies)[:, None]
+    e = np.arange(episodes)[None, :]
+    return mechanics.initial_state(task.arm, episode_uniforms(seed, n, e))
+
+
+def chunk_size(task: TaskSpec, network: NetworkSpec, settings: RWGSettings, backend: str) -> int:
+    """Policies per chunk."""
+    if settings.chunk_policies:
+        return settings.chunk_policies
+    if backend == "pybullet":
+        return 16
+    width = max(network.hidden) + task.observation_size + 4 * task.action_size + 16
+    per_env = 8 * 4 * width  # float64, activations and temporaries
+    envs = settings.chunk_memory_mb * 2**20 // per_env
+    return max(1, min(envs // settings.episodes, 2048))
+
+
+def chunks(task: TaskSpec, network: NetworkSpec, settings: RWGSettings, backend: str) -> list[tuple[int, int]]:
+    """The [start, stop) policy ranges of this shard's chunks."""
+    start, stop = settings.shard_range()
+    size = chunk_size(task, network, settings, backend)
+    return [(a, min(a + size, stop)) for a in range(start, stop, size)]
+
+
+def simulate_chunk(
+    task: TaskSpec,
+    network: NetworkSpec,
+    prior: PriorSpec,
+    settings: RWGSettings,
+    start: int,
+    stop: int,
+    backend: str = "batched",
+) -> ReturnChunk:
+    """Run every episode of policies ``start … stop−1``."""
+    if backend not in BACKENDS:
+        raise ConfigError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    indices = np.arange(start, stop)
+    policies = sample_policies(network, prior, task.observation_size, task.action_size, settings.seed, indices)
+    joint_angles, target = initial_states(task, settings.seed, indices, settings.episodes)
+    if backend == "batched":
+        return _simulate_batched(task, policies, joint_angles, target)
+    return _simulate_pybullet(task, policies, joint_angles, target)
+
+
+def _simulate_batched(task, policies: PolicyBatch, joint_angles, target) -> ReturnChunk:
+    from taskcomplexity.tasks.batched import BatchedReaching
+
+    n_pol, n_ep = joint_angles.shape[:2]
+    env = BatchedReaching(task, n_pol * n_ep)
+    obs = env.reset(torch.from_numpy(joint_angles.reshape(n_pol * n_ep, -1)), torch.from_numpy(target.reshape(-1, 2)))
+    with torch.no_grad():
+        for _ in range(task.max_steps):
+            if not env.active.any():
+                break
+            action = policies.act(obs.view(n_pol, n_ep, -1)).reshape(n_pol * n_ep, -1)
+            obs, _, _ = env.step(action)
+    returns = env.returns.numpy().reshape(n_pol, n_ep).copy()
+    steps = env.steps.numpy().reshape(n_pol, n_ep).copy()
+    success = env.success.numpy().reshape(n_pol, n_ep).copy()
+    handoff = env.handoff.numpy().reshape(n_pol, n_ep)
+    if handoff.any():
+        _finish_on_pybullet(task, policies, env, handoff, returns, steps, success)
+    return ReturnChunk(policies.indices.copy(), returns, steps, success, int(handoff.sum()))
+
+
+def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success) -> None:
+    """Continue handed-over episodes on the PyBullet reference, from the state where they stopped."""
+    from taskcomplexity.tasks.pybullet_env import ReachingEnv
+
+    n_ep = handoff.shape[1]
+    reference = ReachingEnv(task=task)
+    try:
+        for p, e in zip(*np.nonzero(handoff), strict=True):
+            flat = p * n_ep + e
+            obs, _ = reference.reset(
+                options={
+                    "joint_angles": env.joint_angles[flat].numpy(),
+                    "joint_velocities": env.joint_velocities[flat].numpy(),
+                    "target": env.target[flat].numpy(),
+                }
+            )
+            ret, n, ok = _rollout(reference, select_policy(policies, int(p)), obs, task.max_steps - int(steps[p, e]))
+            returns[p, e] += ret
+            steps[p, e] += n
+            success[p, e] |= ok
+    finally:
+        reference.close()
+
+
+def _rollout(env, policy: PolicyBatch, obs, max_steps: int) -> tuple[float, int, bool]:
+    total, n, ok = 0.0, 0, False
+    with torch.no_grad():
+        for _ in range(max_steps):
+            action = policy.act(torch.from_numpy(obs).view(1, 1, -1))[0, 0].numpy()
+            obs, reward, terminated, _, info = env.step(action)
+            total += reward
+            n += 1
+            if terminated:
+                ok = info["success"]
+                break
+    return total, n, ok
+
+
+def _simulate_pybullet(task, policies: PolicyBatch, joint_angles, target) -> ReturnChunk:
+    from taskcomplexity.tasks.pybullet_env import ReachingEnv
+
+    n_pol, n_ep = joint_angles.shape[:2]
+    returns = np.zeros((n_pol, n_ep))
+    steps = np.zeros((n_pol, n_ep), dtype=np.int64)
+    success = np.zeros((n_pol, n_ep), dtype=bool)
+    env = ReachingEnv(task=task)
+    try:
+        for p in range(n_pol):
+            policy = select_policy(policies, p)
+            for e in range(n_ep):
+                obs, _ = env.reset(options={"joint_angles": joint_angles[p, e], "target": target[p, e]})
+                returns[p, e], steps[p, e], success[p, e] = _rollout(env, policy, obs, task.max_steps)
+    finally:
+        env.close()
+    return ReturnChunk(policies.indices.copy(), returns, steps, success)
+
+
+def run_rwg(
+    task: TaskSpec,
+    network: NetworkSpec,
+    prior: PriorSpec,
+    settings: RWGSettings,
+    backend: str = "batched",
+    *,
+    completed: dict[tuple[int, int], ReturnChunk] | None = None,
+    on_chunk: Callable[[tuple[int, int], ReturnChunk], None] | None = None,
+    progress: bool = False,
+) -> ReturnChunk:
+    """Algorithm 1 over this shard's policies.
+
+    Parameters
+    ----------
+    completed : dict, optional
+        Chunks already computed (by an interrupted run), keyed by (start, stop); they are reused.
+    on_chunk : callable, optional
+        Called with each newly computed chunk (e.g. to save it for resumption).
+    progress : bool
+        Show a tqdm bar over environment episodes.
+    """
+    settings.validate()
+    completed = dict(completed or {})
+    ranges = chunks(task, network, settings, backend)
+    from tqdm.auto import tqdm
+
+    total = sum(b - a for a, b in ranges) * settings.episodes
+    bar = tqdm(total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", disable=not progress, smoothing=0.1)
+    try:
+        for key in ranges:
+            if key not in completed:
+                completed[key] = simulate_chunk(task, network, prior, settings, *key, backend=backend)
+                if on_chunk is not None:
+                    on_chunk(key, completed[key])
+            bar.update((key[1] - key[0]) * settings.episodes)
+    finally:
+        bar.close()
+    return ReturnChunk.concatenate([completed[k] for k in ranges])
+
+
+
+
+def env_steps_per_second(chunk: ReturnChunk, seconds: float) -> float:
+    """Throughput of a run: environment steps simulated per wall-clock second."""
+    return float(chunk.steps.sum()) / max(seconds, 1e-12) if math.isfinite(seconds) else float("nan")
