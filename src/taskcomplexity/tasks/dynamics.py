@@ -27,6 +27,9 @@ import numpy as np
 
 from taskcomplexity.tasks.urdf import LinkDynamics
 
+# numba's own thread pool does not spin between kernels (torch's OpenMP pool runs in between).
+numba.config.THREADING_LAYER = "workqueue"
+
 LINK_DAMPING = 0.04  # btMultiBody default m_linearDamping = m_angularDamping
 MAX_COORDINATE_VELOCITY = 100.0  # btMultiBody default m_maxCoordinateVelocity, rad/s
 
@@ -87,7 +90,6 @@ def _two_link_step(p, q1, q2, u, qd2, tau1, tau2, dt):
     m1, c1, i1, b1, l1 = p[3], p[4], p[5], p[6], p[7]
     m2, c2, i2, b2 = p[8], p[9], p[10], p[11]
     w = u + qd2  # absolute angular velocity of the forearm
-    cq, sq = np.cos(q2), np.sin(q2)
     # link 1: torque about its centre of mass and force at it
     f1 = tau1 - b1 * u - i1 * u * (k + k * abs(u)) - m1 * c1 * c1 * u * (k + k * abs(c1 * u))
     f2 = tau2 - b2 * qd2
@@ -95,25 +97,52 @@ def _two_link_step(p, q1, q2, u, qd2, tau1, tau2, dt):
     ang = i2 * w * (k + k * abs(w))
     f1 -= ang
     f2 -= ang
-    # link 2: linear damping of its centre of mass, v = l1·u·e⊥(q1) + c2·w·e⊥(q1+q2)
-    speed = np.sqrt(l1 * l1 * u * u + c2 * c2 * w * w + 2.0 * l1 * c2 * u * w * cq)
-    s = m2 * (k + k * speed)
-    along1 = l1 * u + c2 * w * cq  # v · e⊥(q1)
-    along12 = l1 * u * cq + c2 * w  # v · e⊥(q1+q2)
-    f1 -= s * (l1 * along1 + c2 * along12)
-    f2 -= s * c2 * along12
-    # Coriolis and centrifugal terms
-    h = m2 * l1 * c2 * sq
-    f1 += h * (2.0 * u * qd2 + qd2 * qd2)
-    f2 -= h * u * u
-    a11 = i1 + m1 * c1 * c1 + i2 + m2 * (l1 * l1 + c2 * c2 + 2.0 * l1 * c2 * cq)
-    a12 = i2 + m2 * (c2 * c2 + l1 * c2 * cq)
-    a22 = i2 + m2 * c2 * c2
+    if c2 == 0.0:
+        # centre of mass on the elbow: v = l1·u·e⊥(q1), M constant, no Coriolis terms
+        f1 -= m2 * l1 * l1 * u * (k + k * abs(l1 * u))
+        a11 = i1 + m1 * c1 * c1 + i2 + m2 * l1 * l1
+        a12 = i2
+        a22 = i2
+    else:
+        cq, sq = np.cos(q2), np.sin(q2)
+        # link 2: linear damping of its centre of mass, v = l1·u·e⊥(q1) + c2·w·e⊥(q1+q2)
+        speed = np.sqrt(l1 * l1 * u * u + c2 * c2 * w * w + 2.0 * l1 * c2 * u * w * cq)
+        s = m2 * (k + k * speed)
+        along1 = l1 * u + c2 * w * cq  # v · e⊥(q1)
+        along12 = l1 * u * cq + c2 * w  # v · e⊥(q1+q2)
+        f1 -= s * (l1 * along1 + c2 * along12)
+        f2 -= s * c2 * along12
+        # Coriolis and centrifugal terms
+        h = m2 * l1 * c2 * sq
+        f1 += h * (2.0 * u * qd2 + qd2 * qd2)
+        f2 -= h * u * u
+        a11 = i1 + m1 * c1 * c1 + i2 + m2 * (l1 * l1 + c2 * c2 + 2.0 * l1 * c2 * cq)
+        a12 = i2 + m2 * (c2 * c2 + l1 * c2 * cq)
+        a22 = i2 + m2 * c2 * c2
     det = a11 * a22 - a12 * a12
     acc1 = (a22 * f1 - a12 * f2) / det
     acc2 = (a11 * f2 - a12 * f1) / det
     u = min(max(u + dt * acc1, -vmax), vmax)
     qd2 = min(max(qd2 + dt * acc2, -vmax), vmax)
+    return q1 + dt * u, q2 + dt * qd2, u, qd2
+
+
+@numba.njit(cache=True, inline="always")
+def _two_link_step_const(p, inv, q1, q2, u, qd2, tau1, tau2, dt):
+    """:func:`_two_link_step` for a forearm whose centre of mass is on the elbow (M constant).
+
+    ``inv`` holds M⁻¹ as (inv11, inv12, inv22); the arithmetic is otherwise the same.
+    """
+    k, vmax = p[1], p[2]
+    m1, c1, i1, b1, l1 = p[3], p[4], p[5], p[6], p[7]
+    m2, i2, b2 = p[8], p[10], p[11]
+    w = u + qd2
+    ang = i2 * w * (k + k * abs(w))
+    f1 = tau1 - b1 * u - i1 * u * (k + k * abs(u)) - m1 * c1 * c1 * u * (k + k * abs(c1 * u)) - ang
+    f1 -= m2 * l1 * l1 * u * (k + k * abs(l1 * u))
+    f2 = tau2 - b2 * qd2 - ang
+    u = min(max(u + dt * (inv[0] * f1 + inv[1] * f2), -vmax), vmax)
+    qd2 = min(max(qd2 + dt * (inv[1] * f1 + inv[2] * f2), -vmax), vmax)
     return q1 + dt * u, q2 + dt * qd2, u, qd2
 
 
@@ -129,28 +158,62 @@ def _near_block(p, obstacle, q1, q2):
     return px * px + py * py < obstacle[5] * obstacle[5]
 
 
+BLOCK = 256  # environments advanced in lock-step, so the compiler can interleave (and vectorise) them
+
+
 @numba.njit(parallel=True, cache=True)
 def _advance(params, q, qd, torque, active, dt, substeps, obstacle, contact):
     n_env = q.shape[0]
-    for e in numba.prange(n_env):
-        if not active[e]:
-            continue
-        if params[0] == 1:
-            a, ad = q[e, 0], qd[e, 0]
-            a, ad = _one_link_step(params, a, ad, torque[e, 0], dt)
-            for _ in range(substeps - 1):
-                a, ad = _one_link_step(params, a, ad, 0.0, dt)
-            q[e, 0], qd[e, 0] = a, ad
-        else:
-            a1, a2, u, v = q[e, 0], q[e, 1], qd[e, 0], qd[e, 1]
-            a1, a2, u, v = _two_link_step(params, a1, a2, u, v, torque[e, 0], torque[e, 1], dt)
-            touched = obstacle[0] > 0 and _near_block(params, obstacle, a1, a2)
-            for _ in range(substeps - 1):
-                a1, a2, u, v = _two_link_step(params, a1, a2, u, v, 0.0, 0.0, dt)
-                if obstacle[0] > 0 and not touched:
-                    touched = _near_block(params, obstacle, a1, a2)
-            q[e, 0], q[e, 1], qd[e, 0], qd[e, 1] = a1, a2, u, v
-            contact[e] = touched
+    n_blocks = (n_env + BLOCK - 1) // BLOCK
+    two_links = params[0] == 2
+    const = two_links and params[9] == 0.0
+    inv = np.zeros(3)
+    if const:
+        m1, c1, i1, l1, m2, i2 = params[3], params[4], params[5], params[7], params[8], params[10]
+        a11, a12, a22 = i1 + m1 * c1 * c1 + i2 + m2 * l1 * l1, i2, i2
+        det = a11 * a22 - a12 * a12
+        inv[0], inv[1], inv[2] = a22 / det, -a12 / det, a11 / det
+    check = obstacle[0] > 0
+    for blk in numba.prange(n_blocks):
+        lo = blk * BLOCK
+        n = min(BLOCK, n_env - lo)
+        a1 = np.empty(n)
+        u = np.empty(n)
+        t1 = np.empty(n)
+        a2 = np.zeros(n)
+        v = np.zeros(n)
+        t2 = np.zeros(n)
+        touched = np.zeros(n, dtype=np.bool_)
+        for j in range(n):
+            a1[j], u[j], t1[j] = q[lo + j, 0], qd[lo + j, 0], torque[lo + j, 0]
+            if two_links:
+                a2[j], v[j], t2[j] = q[lo + j, 1], qd[lo + j, 1], torque[lo + j, 1]
+        for s in range(substeps):
+            on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
+            if const:
+                for j in range(n):
+                    a1[j], a2[j], u[j], v[j] = _two_link_step_const(
+                        params, inv, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
+                    )
+            elif two_links:
+                for j in range(n):
+                    a1[j], a2[j], u[j], v[j] = _two_link_step(
+                        params, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
+                    )
+            else:
+                for j in range(n):
+                    a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
+            if two_links and check:
+                for j in range(n):
+                    touched[j] |= _near_block(params, obstacle, a1[j], a2[j])
+        for j in range(n):
+            e = lo + j
+            if not active[e]:
+                continue
+            q[e, 0], qd[e, 0] = a1[j], u[j]
+            if two_links:
+                q[e, 1], qd[e, 1] = a2[j], v[j]
+                contact[e] = touched[j]
 
 
 NO_OBSTACLE = np.zeros(6)
