@@ -36,6 +36,13 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
             continue
         name, _, value = arg.partition("=")
         name = name.lstrip("+~")
+        if name == "paths.outputs" and "," not in value and "$" not in value:
+            from taskcomplexity.pipeline.cache import ensure_writable
+
+            try:
+                ensure_writable(Path(value))
+            except TaskComplexityError as err:
+                fail(str(err))
         if name not in GROUPS or not (conf_dir / name).is_dir():
             continue
         allowed = sorted(p.stem for p in (conf_dir / name).glob("*.yaml"))

@@ -185,27 +185,62 @@ def _simulate_batched(task, policies: PolicyBatch, joint_angles, target) -> Retu
 
 
 def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success) -> None:
-    """Continue handed-over episodes on the PyBullet reference, from the state where they stopped."""
+    """Continue handed-over episodes on the PyBullet reference, from the state where they stopped.
+
+    """
+    n_ep = handoff.shape[1]
+    jobs = []
+    for p, e in zip(*np.nonzero(handoff), strict=True):
+        flat = p * n_ep + e
+        one = select_policy(policies, int(p))
+        jobs.append(
+            (
+                int(p),
+                int(e),
+                [w.numpy() for w in one.weights],
+                None if one.biases is None else [b.numpy() for b in one.biases],
+                env.joint_angles[flat].numpy().copy(),
+                env.joint_velocities[flat].numpy().copy(),
+                env.target[flat].numpy().copy(),
+                task.max_steps - int(steps[p, e]),
+            )
+        )
+    from tqdm.auto import tqdm
+
+    _init_reference(task)
+    try:
+        outcomes = [
+            _continue_episode(job)
+            for job in tqdm(jobs, desc="obstacle contacts on pybullet", unit="ep", disable=not _PROGRESS[0], leave=False)
+        ]
+    finally:
+        _REFERENCE.pop("env").close()
+    for (p, e, *_), (ret, n, ok) in zip(jobs, outcomes, strict=True):
+        returns[p, e] += ret
+        steps[p, e] += n
+        success[p, e] |= ok
+
+
+_REFERENCE = {}
+_PROGRESS = [False]
+
+
+def _init_reference(task) -> None:
     from taskcomplexity.tasks.pybullet_env import ReachingEnv
 
-    n_ep = handoff.shape[1]
-    reference = ReachingEnv(task=task)
-    try:
-        for p, e in zip(*np.nonzero(handoff), strict=True):
-            flat = p * n_ep + e
-            obs, _ = reference.reset(
-                options={
-                    "joint_angles": env.joint_angles[flat].numpy(),
-                    "joint_velocities": env.joint_velocities[flat].numpy(),
-                    "target": env.target[flat].numpy(),
-                }
-            )
-            ret, n, ok = _rollout(reference, select_policy(policies, int(p)), obs, task.max_steps - int(steps[p, e]))
-            returns[p, e] += ret
-            steps[p, e] += n
-            success[p, e] |= ok
-    finally:
-        reference.close()
+    _REFERENCE["env"] = ReachingEnv(task=task)
+
+
+def _continue_episode(job) -> tuple[float, int, bool]:
+    _, _, weights, biases, joint_angles, joint_velocities, target, max_steps = job
+    env = _REFERENCE["env"]
+    policy = PolicyBatch(
+        weights=[torch.from_numpy(w) for w in weights],
+        biases=None if biases is None else [torch.from_numpy(b) for b in biases],
+        indices=np.zeros(1, dtype=np.int64),
+    )
+    obs, _ = env.reset(options={"joint_angles": joint_angles, "joint_velocities": joint_velocities, "target": target})
+    return _rollout(env, policy, obs, max_steps)
 
 
 def _rollout(env, policy: PolicyBatch, obs, max_steps: int) -> tuple[float, int, bool]:
@@ -269,6 +304,7 @@ def run_rwg(
     from tqdm.auto import tqdm
 
     total = sum(b - a for a, b in ranges) * settings.episodes
+    _PROGRESS[0] = progress
     bar = tqdm(total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", disable=not progress, smoothing=0.1)
     try:
         for key in ranges:

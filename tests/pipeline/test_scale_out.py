@@ -1,0 +1,185 @@
+"""Scale-out and robustness (issue 7): launchers, concurrency, corruption, bad input."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from taskcomplexity.pipeline.cache import Cache
+from taskcomplexity.pipeline.metrics_stage import MetricsSettings, run_metrics_stage
+from taskcomplexity.pipeline.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.tasks.spec import make_task
+
+ROOT = Path(__file__).resolve().parents[2]
+RWG = str(ROOT / "pipelines" / "rwg.py")
+METRICS = str(ROOT / "pipelines" / "metrics.py")
+
+
+def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def request(**settings) -> RWGRequest:
+    base = {"policies": 12, "episodes": 3, "seed": 1}
+    return RWGRequest(make_task("one_link_1m65", "sparse"), NetworkSpec(), PriorSpec(), RWGSettings(**{**base, **settings}))
+
+
+def snapshot(root: Path) -> dict[str, int]:
+    return {str(p.relative_to(root)): p.stat().st_mtime_ns for p in root.rglob("*") if p.is_file()} if root.exists() else {}
+
+
+def test_multirun_through_the_joblib_launcher(tmp_path):
+    result = run(RWG, "-m", "hydra/launcher=local_parallel", "arm=one_link_1m0,two_link", "experiment=smoke",
+                 f"paths.outputs={tmp_path}", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "Joblib" in result.stdout + result.stderr
+    assert len(list((tmp_path / "cache" / "rwg").glob("*/returns.parquet"))) == 2
+
+
+def test_sharded_multirun_through_submitit_local_equals_a_single_job(tmp_path):
+    sharded = run(RWG, "-m", "hydra/launcher=local_submitit", "arm=one_link_1m65", "rwg.shards=3",
+                  "rwg.shard=range(3)", "experiment=smoke", f"paths.outputs={tmp_path / 'sharded'}", cwd=tmp_path)
+    assert sharded.returncode == 0, sharded.stderr[-2000:]
+    assert "Submitit 'local'" in sharded.stdout + sharded.stderr
+    single = run(RWG, "arm=one_link_1m65", "experiment=smoke", f"paths.outputs={tmp_path / 'single'}", cwd=tmp_path)
+    assert single.returncode == 0, single.stderr[-2000:]
+    [a] = (tmp_path / "sharded" / "cache" / "rwg").glob("*/returns.parquet")
+    [b] = (tmp_path / "single" / "cache" / "rwg").glob("*/returns.parquet")
+    assert a.parent.name == b.parent.name  # same key
+    pd.testing.assert_frame_equal(pd.read_parquet(a), pd.read_parquet(b))
+
+
+def _compute(root: str, barrier) -> str:
+    barrier.wait()
+    artefact, _ = run_rwg_stage(Cache(root), request())
+    return artefact.key
+
+
+def test_two_processes_computing_the_same_key_leave_one_valid_artefact(tmp_path):
+    ctx = multiprocessing.get_context("spawn")
+    barrier = ctx.Manager().Barrier(2)
+    with ctx.Pool(2) as pool:
+        keys = pool.starmap(_compute, [(str(tmp_path), barrier)] * 2)
+    assert keys[0] == keys[1]
+    entries = [p for p in (tmp_path / "rwg").iterdir() if not p.name.startswith(".")]
+    assert [p.name for p in entries] == [keys[0]]
+    assert not list((tmp_path / "rwg").glob(".tmp-*"))
+    cache = Cache(tmp_path)
+    assert cache.lookup("rwg", keys[0]) is not None
+    np.testing.assert_array_equal(load_returns(cache.lookup("rwg", keys[0])), load_returns(run_rwg_stage(Cache(tmp_path / "x"), request())[0]))
+
+
+def test_a_truncated_parquet_is_detected_and_recomputed(tmp_path, caplog):
+    cache = Cache(tmp_path)
+    artefact, _ = run_rwg_stage(cache, request())
+    good = pd.read_parquet(artefact.file(RETURNS))
+    data = artefact.file(RETURNS).read_bytes()
+    artefact.file(RETURNS).write_bytes(data[: len(data) // 2])
+    with caplog.at_level("WARNING"):
+        again, hit = run_rwg_stage(cache, request())
+    assert not hit
+    assert "corrupt rwg artefact" in caplog.text and "returns.parquet" in caplog.text
+    pd.testing.assert_frame_equal(pd.read_parquet(again.file(RETURNS)), good)
+
+
+def test_a_damaged_manifest_is_detected_and_recomputed(tmp_path):
+    cache = Cache(tmp_path)
+    artefact, _ = run_rwg_stage(cache, request())
+    (artefact.path / "manifest.json").write_text("{not json")
+    _, hit = run_rwg_stage(cache, request())
+    assert not hit and cache.lookup("rwg", artefact.key) is not None
+
+
+def test_a_new_stage_format_version_invalidates_old_keys(monkeypatch):
+    import taskcomplexity.pipeline.rwg_stage as stage
+
+    old = request().key
+    monkeypatch.setattr(stage, "VERSION", stage.VERSION + 1)
+    assert request().key != old
+
+
+def test_returns_with_nan_are_refused_by_the_metrics_stage_naming_policy_and_episode(tmp_path):
+    cache = Cache(tmp_path)
+    artefact, _ = run_rwg_stage(cache, request())
+    frame = pd.read_parquet(artefact.file(RETURNS))
+    frame.loc[(frame.policy == 4) & (frame.episode == 2), "return"] = np.nan
+    frame.to_parquet(artefact.file(RETURNS), index=False)
+    manifest = artefact.manifest
+    manifest["files"][RETURNS] = artefact.file(RETURNS).stat().st_size
+    (artefact.path / "manifest.json").write_text(__import__("json").dumps(manifest))
+    before = snapshot(tmp_path)
+    with pytest.raises(ValueError, match="policy 4, episode 2"):
+        run_metrics_stage(cache, artefact, MetricsSettings(bins=100, resamples=5))
+    assert not list((tmp_path / "metrics").glob("[!.]*"))  # nothing half-written under a key
+    assert {k: v for k, v in snapshot(tmp_path).items() if not k.startswith("metrics")} == before
+
+
+@pytest.fixture(scope="module")
+def seeded_outputs(tmp_path_factory):
+    """An outputs directory whose cache already holds an artefact."""
+    outputs = tmp_path_factory.mktemp("seeded") / "outputs"
+    seeded = run(RWG, "experiment=smoke", f"paths.outputs={outputs}", cwd=outputs.parent)
+    assert seeded.returncode == 0, seeded.stderr[-2000:]
+    return outputs
+
+
+@pytest.mark.parametrize(
+    ("script", "override", "message"),
+    [
+        (RWG, "arm=three_link", "error: arm=three_link is not a known option (allowed: one_link_1m0, one_link_1m65, two_link, two_link_obstacle)"),
+        (RWG, "prior=cauchy", "error: prior=cauchy is not a known option (allowed: normal, normal_var2, uniform, xavier_normal, xavier_uniform)"),
+        (RWG, "rwg.policies=1", "error: rwg.policies must be an integer >= 2 (N), got 1"),
+        (RWG, "rwg.episodes=1", "error: rwg.episodes must be an integer >= 2 (M), got 1"),
+        (RWG, "arm.links.0.length=-0.5", "error: arm.links[0].length must be a finite number > 0, got -0.5"),
+        (RWG, "arm.torque_scale=[-30.0]", "error: arm.torque_scale[0] must be a finite number > 0, got -30.0"),
+        (RWG, "rwg.shard=5", "error: rwg.shard must be in [0, 0] (rwg.shards=1), got 5"),
+        (METRICS, "metrics.bins=1", "error: metrics.bins must be an integer >= 2 (B), got 1"),
+        (METRICS, "metrics.temperature_range=[2.0,1.0]", "error: metrics.temperature_range must be [low, high] with 0 < low < high, got [2.0, 1.0]"),
+        (METRICS, "metrics.temperature_range=[0.0,1.0]", "error: metrics.temperature_range must be [low, high] with 0 < low < high, got [0.0, 1.0]"),
+    ],
+)
+def test_bad_input_stops_with_one_line_exit_2_and_an_untouched_cache(seeded_outputs, tmp_path, script, override, message):
+    outputs = seeded_outputs
+    before = snapshot(outputs / "cache")
+    result = run(script, "experiment=smoke", override, f"paths.outputs={outputs}", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines()[-1] == message
+    assert snapshot(outputs / "cache") == before
+
+
+def test_an_output_directory_that_cannot_be_written_is_named(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        if os.access(locked, os.W_OK):
+            pytest.skip("running as a user who can write anywhere (root)")
+        result = run(RWG, "experiment=smoke", f"paths.outputs={locked / 'out'}", cwd=tmp_path)
+        assert result.returncode == 2
+        assert result.stderr.strip().splitlines()[-1].startswith(f"error: paths.outputs: cannot write to {locked / 'out'}")
+    finally:
+        locked.chmod(0o700)
+
+
+def test_an_output_path_that_is_a_file_is_named(tmp_path):
+    blocker = tmp_path / "not_a_directory"
+    blocker.write_text("")
+    result = run(RWG, "experiment=smoke", f"paths.outputs={blocker}", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines()[-1].startswith(f"error: paths.outputs: cannot write to {blocker}")
+
+
+def test_cache_listing_shows_artefacts_with_sizes(tmp_path):
+    run_rwg_stage(Cache(tmp_path / "cache"), request())
+    result = run("-m", "taskcomplexity.pipeline.cache", "list", str(tmp_path / "cache"), cwd=tmp_path)
+    assert result.returncode == 0
+    assert "rwg" in result.stdout and "KB" in result.stdout and "1 artefacts" in result.stdout
