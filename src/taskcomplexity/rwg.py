@@ -209,10 +209,8 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success) -
 
     _init_reference(task)
     try:
-        outcomes = [
-            _continue_episode(job)
-            for job in tqdm(jobs, desc="obstacle contacts on pybullet", unit="ep", disable=not _PROGRESS[0], leave=False)
-        ]
+        bar = tqdm(jobs, desc="obstacle contacts on pybullet", unit="ep", disable=not _PROGRESS[0], leave=False)
+        outcomes = [_continue_episode(job) for job in bar]
     finally:
         _REFERENCE.pop("env").close()
     for (p, e, *_), (ret, n, ok) in zip(jobs, outcomes, strict=True):
