@@ -20,8 +20,9 @@ from taskcomplexity.cli import (
     check_overrides,
     metrics_settings_from_config,
     one_line_errors,
+    run_name,
     rwg_request_from_config,
-    study_tasks,
+    study_requests,
 )
 from taskcomplexity.config import task_from_config
 from taskcomplexity.errors import ConfigError
@@ -35,13 +36,17 @@ def run(cfg: DictConfig):
     scope = cfg.metrics.get("scope", "study")
     if scope not in ("study", "task"):
         raise ConfigError(f"metrics.scope must be one of ['study', 'task'], got {scope!r}")
-    tasks = study_tasks(cfg) if scope == "study" else [task_from_config(cfg)]
-    requests = [rwg_request_from_config(cfg, task) for task in tasks]
+    if scope == "study":
+        names, requests = zip(*study_requests(cfg), strict=True)
+    else:
+        names, requests = None, [rwg_request_from_config(cfg, task_from_config(cfg))]
     settings = metrics_settings_from_config(cfg)
     cache = cache_from_config(cfg)
-    results = study_metrics(cache, requests, settings, force=bool(cfg.force), progress=True)
+    results = study_metrics(
+        cache, list(requests), settings, names=list(names) if names else None, force=bool(cfg.force), progress=True
+    )
     if len(results) >= 2:
-        written = write_metrics_tables(results, cfg.paths.outputs, cfg.study.name, alpha=settings.alpha)
+        written = write_metrics_tables(results, cfg.paths.outputs, run_name(cfg), alpha=settings.alpha)
         for path in written:
             log.info("table: %s", path)
     return results

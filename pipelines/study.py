@@ -22,8 +22,8 @@ from taskcomplexity.cli import (
     check_overrides,
     metrics_settings_from_config,
     one_line_errors,
-    rwg_request_from_config,
-    study_tasks,
+    run_name,
+    study_requests,
 )
 from taskcomplexity.pipeline.study import study_metrics, write_metrics_tables
 
@@ -33,12 +33,11 @@ log = logging.getLogger("study")
 @one_line_errors
 def run(cfg: DictConfig) -> Path:
     started = time.time()
-    tasks = study_tasks(cfg)
-    requests = [rwg_request_from_config(cfg, task) for task in tasks]
+    names, requests = zip(*study_requests(cfg), strict=True)
     settings = metrics_settings_from_config(cfg)
     cache = cache_from_config(cfg)
-    results = study_metrics(cache, requests, settings, force=bool(cfg.force), progress=True)
-    tables = write_metrics_tables(results, cfg.paths.outputs, cfg.study.name, alpha=settings.alpha)
+    results = study_metrics(cache, list(requests), settings, names=list(names), force=bool(cfg.force), progress=True)
+    tables = write_metrics_tables(results, cfg.paths.outputs, run_name(cfg), alpha=settings.alpha)
     out = Path(tables[0]).parent
     log.info("study %s done in %.0f s; tables in %s", cfg.study.name, time.time() - started, out)
     print(f"\nStudy '{cfg.study.name}' finished in {time.time() - started:.0f} s. Tables: {out}")

@@ -82,7 +82,7 @@ def rwg_request_from_config(cfg: Any, task=None):
     from taskcomplexity.pipeline.rwg_stage import RWGRequest
     from taskcomplexity.rwg import BACKENDS, RWGSettings
 
-    if cfg.backend not in BACKENDS:
+    if str(cfg.backend) not in BACKENDS:
         raise ConfigError(f"backend must be one of {list(BACKENDS)}, got {cfg.backend!r}")
     network, prior = sampler_from_config(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
@@ -132,6 +132,54 @@ def _load_group(group: str, name: str):
         if item != "_self_":
             base = OmegaConf.merge(base, _load_group(group, item))
     return OmegaConf.merge(base, node)
+
+
+def study_requests(cfg: Any) -> list[tuple[str, Any]]:
+    """(name, RWGRequest) for every entry of ``study.tasks``.
+
+    An entry names its ``arm`` and ``reward`` and may name a ``prior``, a ``network`` (defaults: the
+    composed ones) and a display ``name`` (default: the task id); ``study.policies`` and
+    ``study.episodes``, when set, override N and M for every entry.
+    """
+    import dataclasses
+
+    from taskcomplexity.policies import NetworkSpec, PriorSpec
+
+    network, prior = sampler_from_config(cfg)
+    from taskcomplexity.rwg import RWGSettings
+
+    settings = build(RWGSettings, cfg.rwg, "rwg")
+    overrides = {k: cfg.study.get(k) for k in ("policies", "episodes") if cfg.study.get(k) is not None}
+    if overrides:
+        settings = dataclasses.replace(settings, **{k: int(v) for k, v in overrides.items()})
+        settings.validate()
+    out = []
+    for i, (entry, task) in enumerate(zip(cfg.study.tasks, study_tasks(cfg), strict=True)):
+        entry_network, entry_prior = network, prior
+        for group, cls in (("network", NetworkSpec), ("prior", PriorSpec)):
+            if entry.get(group) is None:
+                continue
+            if not (CONF_DIR / group / f"{entry[group]}.yaml").exists():
+                allowed = sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
+                raise ConfigError(
+                    f"study.tasks[{i}].{group}={entry[group]} is not a known option (allowed: {', '.join(allowed)})"
+                )
+            spec = build(cls, _load_group(group, entry[group]), f"study.tasks[{i}].{group}")
+            if group == "network":
+                entry_network = spec
+            else:
+                entry_prior = spec
+        from taskcomplexity.pipeline.rwg_stage import RWGRequest
+
+        request = RWGRequest(task, entry_network, entry_prior, settings, str(cfg.backend))
+        out.append((str(entry.get("name") or task.task_id), request))
+    return out
+
+
+def run_name(cfg: Any) -> str:
+    """Directory name of a study's tables and report: ``<study.name>-<tag>`` (e.g. seven_tasks-quick)."""
+    tag = cfg.get("tag")
+    return f"{cfg.study.name}-{tag}" if tag else str(cfg.study.name)
 
 
 def cache_from_config(cfg: Any):

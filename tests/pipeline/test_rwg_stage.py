@@ -119,7 +119,7 @@ def test_smoke_study_through_both_stages_on_the_pybullet_backend(compose_config,
     cfg = compose_config("experiment=smoke", "backend=pybullet")
     results = metrics_entry.run(cfg)
     assert len(results) == 7
-    tables = Path(cfg.paths.outputs) / "tables" / "smoke"
+    tables = Path(cfg.paths.outputs) / "tables" / "seven_tasks-smoke"
     table = (tables / "table1_pic_poic.md").read_text()
     for label in ("1-link, L = 1.0 m", "1-link, L = 1.65 m", "2-link", "2-link + obstacle"):
         assert label in table

@@ -31,18 +31,34 @@ class TaskMetrics:
 
 
 def study_metrics(
-    cache: Cache, requests: list[RWGRequest], settings: MetricsSettings, *, force: bool = False, progress: bool = False
+    cache: Cache,
+    requests: list[RWGRequest],
+    settings: MetricsSettings,
+    *,
+    names: list[str] | None = None,
+    force: bool = False,
+    progress: bool = False,
 ) -> list[TaskMetrics]:
-    """Compute or reuse the RWG and metrics artefacts of every task, in table order."""
+    """Compute or reuse the RWG and metrics artefacts of every task, in table order.
+
+    ``names`` labels the entries (default: their task ids); entries with non-task names keep
+    their order.
+    """
+    names = names or [r.task.task_id for r in requests]
     results = []
-    for request in sorted(requests, key=lambda r: task_sort_key(r.task.task_id)):
+    def position(i: int):
+        return task_sort_key(names[i]) if names[i] == requests[i].task.task_id else (98, i, "")
+
+    order = sorted(range(len(requests)), key=position)
+    for i in order:
+        request = requests[i]
         rwg, rwg_hit = run_rwg_stage(cache, request, force=force, progress=progress)
         metrics, hit = run_metrics_stage(cache, rwg, settings, label=request.label, force=force, progress=progress)
         log.info(
             "%s: rwg %s, metrics %s", request.task.task_id, "cache hit" if rwg_hit else "computed",
             "cache hit" if hit else "computed",
         )
-        results.append(TaskMetrics(request.task.task_id, request, rwg, metrics))
+        results.append(TaskMetrics(names[i], request, rwg, metrics))
     return results
 
 
