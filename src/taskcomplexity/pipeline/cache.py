@@ -143,6 +143,7 @@ class Cache:
         config: dict[str, Any],
         inputs: dict[str, str] | None = None,
         force: bool = False,
+        after: Callable[[], None] | None = None,
     ) -> tuple[Artefact, bool]:
         """Return the artefact for ``key``, computing it if needed.
 
@@ -157,6 +158,8 @@ class Cache:
             Keys of upstream artefacts.
         force : bool
             Recompute even if a valid artefact exists.
+        after : callable, optional
+            Run under the lock once the artefact is in place (e.g. to remove partial work).
 
         Returns
         -------
@@ -197,6 +200,8 @@ class Cache:
                 if final.exists():
                     self._discard(final)
                 os.replace(tmp, final)
+                if after is not None:
+                    after()
             finally:
                 if tmp.exists():
                     shutil.rmtree(tmp, ignore_errors=True)

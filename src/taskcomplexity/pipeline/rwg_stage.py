@@ -9,12 +9,15 @@ single job would have written (same key, same returns).
 from __future__ import annotations
 
 import logging
+import os
+import shutil
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from filelock import FileLock
 
 from taskcomplexity.errors import ArtefactError
 from taskcomplexity.pipeline.cache import Artefact, Cache
@@ -69,7 +72,7 @@ def _chunk_file(scratch: Path, start: int, stop: int) -> Path:
 
 
 def _save_chunk(path: Path, chunk: ReturnChunk) -> None:
-    tmp = path.with_name(path.name + ".tmp.npz")
+    tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
     np.savez(tmp, policy=chunk.policy, returns=chunk.returns, steps=chunk.steps, success=chunk.success,
              handoffs=np.int64(chunk.handoffs))
     tmp.replace(path)
@@ -143,6 +146,24 @@ def returns_frame(chunk: ReturnChunk) -> pd.DataFrame:
     )
 
 
+def _shard_lock(cache: Cache, key: str, shard: int) -> FileLock:
+    directory = cache.root / STAGE
+    directory.mkdir(parents=True, exist_ok=True)
+    return FileLock(str(directory / f".{key}.shard-{shard}.lock"))
+
+
+def _ensure_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bool) -> bool:
+    """Compute one shard under its lock unless it (or the whole artefact) already exists.
+
+    Returns False when the merged artefact appeared meanwhile (a concurrent job finished it).
+    """
+    with _shard_lock(cache, request.key, shard):
+        if cache.lookup(STAGE, request.key) is not None:
+            return False
+        compute_shard(cache, request, shard, progress=progress)
+    return True
+
+
 def run_rwg_stage(
     cache: Cache,
     request: RWGRequest,
@@ -152,6 +173,9 @@ def run_rwg_stage(
     compute_missing: bool = True,
 ) -> tuple[Artefact | None, bool]:
     """Produce the returns artefact of ``request`` (or this job's shard of it).
+
+    Concurrent jobs on the same key are safe: each shard is computed under its own file lock (a
+    second job waits, then reuses it), and the merge runs under the key's lock in the cache.
 
     Returns
     -------
@@ -165,23 +189,25 @@ def run_rwg_stage(
         log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
         return found, True
     started = time.time()
-    compute_shard(cache, request, request.settings.shard, progress=progress)
-    missing = missing_shards(cache, request)
+    shards = request.settings.shards
+    if force:
+        shutil.rmtree(cache.root / STAGE / f".partial-{key}", ignore_errors=True)
+    _ensure_shard(cache, request, request.settings.shard, progress=progress)
+    missing = missing_shards(cache, request) if cache.lookup(STAGE, key) is None else []
     if missing and not compute_missing:
-        log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard,
-                 request.settings.shards, request.label, missing)
+        log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard, shards,
+                 request.label, missing)
         return None, False
     for shard in missing:
-        compute_shard(cache, request, shard, progress=progress)
+        _ensure_shard(cache, request, shard, progress=progress)
 
     def write(directory: Path) -> dict:
         scratch = cache.scratch(STAGE, key)
-        parts = [_load_chunk(_shard_file(scratch, i, request.settings.shards)) for i in range(request.settings.shards)]
+        parts = [_load_chunk(_shard_file(scratch, i, shards)) for i in range(shards)]
         if any(p is None for p in parts):
             raise ArtefactError(f"rwg {key}: a shard became unreadable while merging; rerun to recompute it")
         merged = ReturnChunk.concatenate(parts)
         returns_frame(merged).to_parquet(directory / RETURNS, index=False)
-        seconds = time.time() - started
         return {
             "label": request.label,
             "policies": request.settings.policies,
@@ -190,14 +216,13 @@ def run_rwg_stage(
             "backend": request.backend,
             "env_steps": int(merged.steps.sum()),
             "handoffs": merged.handoffs,
-            "compute_seconds": round(seconds, 3),
+            "compute_seconds": round(time.time() - started, 3),
         }
 
-    artefact, hit = cache.get_or_compute(STAGE, key, write, config=request.identity(), force=force)
-    import shutil
+    def cleanup() -> None:
+        shutil.rmtree(cache.root / STAGE / f".partial-{key}", ignore_errors=True)
 
-    shutil.rmtree(cache.root / STAGE / f".partial-{key}", ignore_errors=True)
-    return artefact, hit
+    return cache.get_or_compute(STAGE, key, write, config=request.identity(), force=force, after=cleanup)
 
 
 def load_returns(artefact: Artefact) -> np.ndarray:

@@ -1,0 +1,525 @@
+"""The report's figures (seaborn on matplotlib), each saved as PNG and PDF.
+
+Every function builds a :class:`matplotlib.figure.Figure` without pyplot (no global figure
+registry, no backend switch, safe in workers) and returns it; :func:`save_figure` writes it. A task
+has one colour in every figure (:func:`task_palette`): hue by arm, dark for dense and light for
+sparse rewards; markers distinguish the reward type where points overlap.
+
+Units: returns are "return (sum of rewards)", entropies and mutual informations "nats".
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from contextlib import contextmanager
+from pathlib import Path
+
+import matplotlib as mpl
+import numpy as np
+import pandas as pd
+import scipy.stats
+import seaborn as sns
+from matplotlib.figure import Figure
+
+from taskcomplexity.metrics import policy_statistics
+from taskcomplexity.report.tables import ARM_LABELS, split_task_id, task_sort_key
+
+RETURN_UNIT = "sum of rewards"
+RETURN_LABEL = f"return ({RETURN_UNIT})"
+DPI = 150
+WIDTH = 7.0
+"""Figure width in inches: a two-column paper's text width."""
+
+MAX_EPISODE_DOTS = 200_000
+"""Above this many episode returns, the Mₙ-versus-rank panel draws a fixed random subset of them."""
+
+TASK_COLOURS = {
+    "one_link_1m0-dense": "#1f5aa6",
+    "one_link_1m0-sparse": "#8fb6e8",
+    "one_link_1m65-dense": "#1e8449",
+    "one_link_1m65-sparse": "#8fd19e",
+    "two_link-dense": "#c0392b",
+    "two_link-sparse": "#f1948a",
+    "two_link_obstacle-dense": "#7d3c98",
+}
+"""Colour of each task of environments.md: hue by arm, dark = dense, light = sparse."""
+
+REWARD_MARKERS = {"dense": "o", "sparse": "^"}
+VARIANT_STYLES = {"sac": "-", "sac+her": "--"}
+
+SCATTER_METRICS = (
+    ("pic", "PIC (nats)"),
+    ("poic", "POIC (nats)"),
+    ("h_r", "H(R) (nats)"),
+    ("h_r_given_theta", "H(R|Θ) (nats)"),
+    ("h_o", "H(O) (nats)"),
+    ("h_o_given_theta", "H(O|Θ) (nats)"),
+    ("variance", "variance (sum of rewards)"),
+)
+"""Metrics plotted against the normalised score, with axis labels."""
+
+_RC = {
+    "font.size": 8,
+    "axes.titlesize": 8.5,
+    "axes.labelsize": 8,
+    "xtick.labelsize": 7,
+    "ytick.labelsize": 7,
+    "legend.fontsize": 7,
+    "legend.title_fontsize": 7.5,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.linewidth": 0.6,
+    "lines.linewidth": 1.2,
+    "savefig.bbox": "tight",
+    "savefig.pad_inches": 0.03,
+}
+
+
+@contextmanager
+def paper_style():
+    """Paper-size fonts and thin axes, restored afterwards (no global state leaks)."""
+    with mpl.rc_context(), sns.axes_style("ticks"):
+        mpl.rcParams.update(_RC)
+        yield
+
+
+def task_label(task: str) -> str:
+    """``two_link-dense`` → ``2-link, dense``; a name that is not a task id is returned as it is."""
+    arm, reward = split_task_id(task)
+    return f"{ARM_LABELS[arm]}, {reward}" if arm in ARM_LABELS else task
+
+
+def task_palette(tasks: Iterable[str]) -> dict[str, str]:
+    """One colour per task: the fixed colours of :data:`TASK_COLOURS`, others from a colour-blind palette.
+
+    The same task gets the same colour in every figure, whichever other tasks are present.
+    """
+    tasks = sorted(dict.fromkeys(tasks), key=task_sort_key)
+    extra = [t for t in tasks if t not in TASK_COLOURS]
+    spare = sns.color_palette("colorblind", max(len(extra), 1)).as_hex()
+    return {t: TASK_COLOURS.get(t) or spare[extra.index(t) % len(spare)] for t in tasks}
+
+
+def save_figure(figure: Figure, directory: Path, name: str) -> list[Path]:
+    """Write ``name.png`` (150 dpi) and ``name.pdf`` under ``directory``; return both paths."""
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = [directory / f"{name}.png", directory / f"{name}.pdf"]
+    with paper_style():
+        for path in paths:
+            figure.savefig(path, dpi=DPI, metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
+    return paths
+
+
+def _figure(rows: int, columns: int, height: float, **kwargs) -> tuple[Figure, np.ndarray]:
+    figure = Figure(figsize=(WIDTH, height), layout="constrained")
+    axes = figure.subplots(rows, columns, squeeze=False, **kwargs)
+    return figure, axes
+
+
+# (a) The RWG trio -----------------------------------------------------------------------------
+
+
+def episode_dots(returns: np.ndarray, ranks: np.ndarray, *, max_dots: int = MAX_EPISODE_DOTS):
+    """Coordinates of the episode returns in the Mₙ-versus-rank panel.
+
+    Parameters
+    ----------
+    returns : numpy.ndarray, shape (N, M)
+        Episode returns S[n, e].
+    ranks : numpy.ndarray, shape (N,)
+        Rank Rₙ of each policy (1 = lowest mean).
+    max_dots : int
+        Above this many returns, a fixed (seed 0) uniform subset of this size is drawn.
+
+    Returns
+    -------
+    (x, y) : numpy.ndarray, numpy.ndarray
+        The rank of each dot's policy (not its sampling index) and its return.
+    """
+    n_policies, n_episodes = returns.shape
+    x = np.repeat(ranks, n_episodes)
+    y = returns.ravel()
+    if y.size > max_dots:
+        chosen = np.sort(np.random.default_rng(0).choice(y.size, size=max_dots, replace=False))
+        x, y = x[chosen], y[chosen]
+    return x, y
+
+
+def draw_rwg_trio(
+    axes: np.ndarray,
+    policies: pd.DataFrame,
+    *,
+    returns: np.ndarray | None,
+    colour: str,
+    max_dots: int = MAX_EPISODE_DOTS,
+) -> None:
+    """Draw the three RWG panels of one task into ``axes`` (3 axes).
+
+    Parameters
+    ----------
+    axes : array of 3 matplotlib Axes
+        Histogram of scaled Mₙ; Mₙ versus rank; √Vₙ versus Mₙ.
+    policies : pandas.DataFrame
+        :func:`~taskcomplexity.metrics.policy_statistics` (``mean``, ``std``, ``rank``, ``scaled_mean``).
+    returns : numpy.ndarray, shape (N, M), optional
+        Episode returns, drawn as faint red dots at their policy's rank.
+    colour : str
+        The task's colour.
+    max_dots : int
+        Subsampling threshold of the episode dots.
+    """
+    histogram, ranked, spread = axes
+    histogram.hist(policies["scaled_mean"], bins=50, range=(0, 1), color=colour, edgecolor="white", linewidth=0.3)
+    _log_counts(histogram)
+    histogram.set_xlabel("scaled mean return Mₙ′ (min–max)")
+    histogram.set_ylabel("policies (log scale)")
+
+    if returns is not None:
+        x, y = episode_dots(returns, policies["rank"].to_numpy(), max_dots=max_dots)
+        ranked.scatter(x, y, s=_dot_size(x.size), color="#d62728", alpha=_dot_alpha(x.size), linewidths=0,
+                       rasterized=True)
+    ordered = policies.sort_values("rank")
+    ranked.plot(ordered["rank"], ordered["mean"], color="black", linewidth=1.2)
+    ranked.set_xlabel("policy rank Rₙ (1 = lowest Mₙ)")
+    ranked.set_ylabel(RETURN_LABEL)
+
+    spread.scatter(policies["mean"], policies["std"], s=_dot_size(len(policies)) * 3, color=colour,
+                   alpha=min(0.9, _dot_alpha(len(policies)) * 4), linewidths=0, rasterized=True)
+    spread.set_xlabel(f"mean return Mₙ ({RETURN_UNIT})")
+    spread.set_ylabel(f"sd √Vₙ ({RETURN_UNIT})")
+
+
+def _dot_alpha(count: int) -> float:
+    """Opacity of ``count`` overlapping dots: faint when there are many, visible when there are few."""
+    return float(np.clip(3000.0 / max(count, 1), 0.03, 0.7))
+
+
+def _dot_size(count: int) -> float:
+    return float(np.clip(2000.0 / max(count, 1), 0.8, 6.0))
+
+
+def _log_counts(ax) -> None:
+    """Log-scale count axis with plain tick labels (1, 10, 100) and empty bins left out."""
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=0.7)
+    ax.yaxis.set_major_formatter(mpl.ticker.FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.yaxis.set_minor_formatter(mpl.ticker.NullFormatter())
+
+
+def rwg_trio_figure(
+    task: str,
+    policies: pd.DataFrame,
+    *,
+    returns: np.ndarray | None = None,
+    colour: str | None = None,
+    max_dots: int = MAX_EPISODE_DOTS,
+) -> Figure:
+    """Figure (a): the RWG trio of one task (histogram of scaled Mₙ; Mₙ vs rank; √Vₙ vs Mₙ)."""
+    with paper_style():
+        figure, axes = _figure(1, 3, 2.2)
+        draw_rwg_trio(axes[0], policies, returns=returns, colour=colour or task_palette([task])[task],
+                      max_dots=max_dots)
+        figure.suptitle(task_label(task), fontsize=9, fontweight="bold")
+    return figure
+
+
+def rwg_trios_figure(
+    policies: Mapping[str, pd.DataFrame],
+    *,
+    returns: Mapping[str, np.ndarray] | None = None,
+    max_dots: int = MAX_EPISODE_DOTS,
+) -> Figure:
+    """Figure (a) for a study: one row of the RWG trio per task, in table order, task colours.
+
+    Parameters
+    ----------
+    policies : mapping of task id to pandas.DataFrame
+        Each task's policy statistics.
+    returns : mapping of task id to numpy.ndarray (N, M), optional
+        Each task's returns, for the episode dots.
+    max_dots : int
+        Subsampling threshold of the episode dots, per task.
+    """
+    tasks = sorted(policies, key=task_sort_key)
+    palette = task_palette(tasks)
+    with paper_style():
+        figure, axes = _figure(len(tasks), 3, 1.75 * len(tasks) + 0.2)
+        for row, task in zip(axes, tasks, strict=True):
+            draw_rwg_trio(row, policies[task], returns=(returns or {}).get(task), colour=palette[task],
+                          max_dots=max_dots)
+            row[0].set_title(task_label(task), loc="left", fontweight="bold", color=palette[task])
+        for row in axes[:-1]:
+            for ax in row:
+                ax.set_xlabel("")
+    return figure
+
+
+# (b) Normalised score versus the metrics ------------------------------------------------------
+
+
+def pearson(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Pearson r and its two-sided p-value; NaN when fewer than 3 finite pairs or a constant side."""
+    keep = np.isfinite(x) & np.isfinite(y)
+    x, y = x[keep], y[keep]
+    if x.size < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return float("nan"), float("nan")
+    result = scipy.stats.pearsonr(x, y)
+    return float(result.statistic), float(result.pvalue)
+
+
+def score_scatter_figure(metrics: pd.DataFrame) -> Figure:
+    """Figure (b): normalised score score_R versus every metric across tasks, Pearson r and p per panel.
+
+    Parameters
+    ----------
+    metrics : pandas.DataFrame
+        One row per task with ``task``, ``score`` and the columns of :data:`SCATTER_METRICS`.
+    """
+    palette = task_palette(metrics["task"])
+    with paper_style():
+        figure, axes = _figure(2, 4, 3.9, sharey=True)
+        for ax, (column, axis_label) in zip(axes.flat, SCATTER_METRICS, strict=False):
+            for _, row in metrics.iterrows():
+                _, reward = split_task_id(row["task"])
+                ax.scatter(row[column], row["score"], color=palette[row["task"]], s=28,
+                           marker=REWARD_MARKERS.get(reward, "s"), edgecolors="black", linewidths=0.4, zorder=3)
+            r, p = pearson(metrics[column].to_numpy(dtype=float), metrics["score"].to_numpy(dtype=float))
+            ax.set_title("r = n/a" if not np.isfinite(r) else f"r = {r:.2f}, p = {p:.2g}")
+            ax.set_xlabel(axis_label)
+            ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=4))
+            ax.margins(0.12)
+        for ax in axes[:, 0]:
+            ax.set_ylabel("normalised score score_R")
+        legend = axes.flat[-1]
+        legend.axis("off")
+        handles = [
+            mpl.lines.Line2D([], [], linestyle="", marker=REWARD_MARKERS.get(split_task_id(t)[1], "s"),
+                             markerfacecolor=c, markeredgecolor="black", markeredgewidth=0.4, markersize=6,
+                             label=task_label(t))
+            for t, c in palette.items()
+        ]
+        legend.legend(handles=handles, loc="center", frameon=False, title="task")
+    return figure
+
+
+# (c) Bootstrap distributions ------------------------------------------------------------------
+
+
+def bootstrap_figure(draws: Mapping[str, pd.DataFrame], points: pd.DataFrame) -> Figure:
+    """Figure (c): bootstrap distributions of PIC and POIC per task.
+
+    Parameters
+    ----------
+    draws : mapping of task id to pandas.DataFrame
+        The metrics stage's ``bootstrap.parquet`` (``pic``, ``poic`` per resample).
+    points : pandas.DataFrame
+        One row per task: ``task``, ``pic``, ``poic`` (point estimates), ``pic_ci_low``,
+        ``pic_ci_high``, ``poic_ci_low``, ``poic_ci_high`` (percentile 95 % intervals).
+    """
+    tasks = sorted(draws, key=task_sort_key)
+    palette = task_palette(tasks)
+    tidy = pd.concat([draws[t][["pic", "poic"]].assign(task=task_label(t)) for t in tasks], ignore_index=True)
+    colours = {task_label(t): palette[t] for t in tasks}
+    indexed = points.set_index("task")
+    with paper_style():
+        figure, axes = _figure(1, 2, 0.36 * len(tasks) + 0.9, sharey=True)
+        for ax, metric in zip(axes[0], ("pic", "poic"), strict=True):
+            sns.violinplot(data=tidy, x=metric, y="task", hue="task", palette=colours, order=list(colours),
+                           legend=False, inner=None, cut=0, density_norm="width", linewidth=0.5, ax=ax)
+            for position, task in enumerate(tasks):
+                row = indexed.loc[task]
+                ax.plot([row[f"{metric}_ci_low"], row[f"{metric}_ci_high"]], [position, position],
+                        color="black", linewidth=1.0)
+                ax.plot(row[metric], position, marker="D", color="black", markersize=3.5)
+            ax.set_xlabel(f"{metric.upper()} (nats)")
+            ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
+            ax.set_ylabel("")
+            ax.grid(axis="x", linewidth=0.3, alpha=0.5)
+    return figure
+
+
+# (d) SAC learning curves ----------------------------------------------------------------------
+
+
+def seed_band(values: pd.DataFrame, column: str) -> pd.DataFrame:
+    """Mean across seeds and the 95 % t-interval of that mean at every env step.
+
+    Parameters
+    ----------
+    values : pandas.DataFrame
+        Rows of one (task, variant): ``env_step``, ``seed`` and ``column``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``env_step``, ``mean``, ``low``, ``high``, ``seeds``; the interval is NaN with one seed.
+    """
+    grouped = values.groupby("env_step")[column]
+    table = pd.DataFrame({"mean": grouped.mean(), "sd": grouped.std(ddof=1), "seeds": grouped.count()})
+    half = scipy.stats.t.ppf(0.975, np.maximum(table["seeds"] - 1, 1)) * table["sd"] / np.sqrt(table["seeds"])
+    half = half.where(table["seeds"] >= 2)
+    return table.assign(low=table["mean"] - half, high=table["mean"] + half).reset_index()
+
+
+def sac_curves_figure(curves: pd.DataFrame) -> Figure:
+    """Figure (d): SAC evaluation return against env steps, dense and sparse panels, log x.
+
+    Lines are the mean across seeds of ``eval/return_mean``; bands are the 95 % t-interval of that
+    mean (seeds ≥ 2). Evaluations at step 0 cannot be drawn on a log axis and are left out. Solid
+    lines are SAC, dashed SAC + HER.
+    """
+    table = curves[curves["eval/return_mean"].notna() & (curves["env_step"] > 0)]
+    palette = task_palette(table["task"])
+    with paper_style():
+        figure, axes = _figure(1, 2, 2.8)
+        for ax, reward in zip(axes[0], ("dense", "sparse"), strict=True):
+            chosen = table[table["task"].map(lambda t, r=reward: split_task_id(t)[1] == r)]
+            groups = sorted(chosen.groupby(["task", "variant"]).groups, key=lambda k: (task_sort_key(k[0]), k[1]))
+            for task, variant in groups:
+                run = chosen[(chosen["task"] == task) & (chosen["variant"] == variant)]
+                band = seed_band(run, "eval/return_mean")
+                name = task_label(task).rsplit(",", 1)[0] + (" + HER" if variant == "sac+her" else "")
+                ax.plot(band["env_step"], band["mean"], color=palette[task], label=name,
+                        linestyle=VARIANT_STYLES.get(variant, ":"))
+                ax.fill_between(band["env_step"], band["low"], band["high"], color=palette[task], alpha=0.2,
+                                linewidth=0)
+            ax.set_xscale("log")
+            ax.set_title(f"{reward} reward")
+            ax.set_xlabel("environment steps (log scale)")
+            ax.set_ylabel(f"evaluation {RETURN_LABEL}")
+            if groups:
+                ax.legend(frameon=False, loc="upper left")
+            else:
+                ax.text(0.5, 0.5, f"no {reward}-reward runs", transform=ax.transAxes, ha="center", va="center")
+    return figure
+
+
+# (e) Estimator diagnostics --------------------------------------------------------------------
+
+
+def bins_sweep_figure(bins_sweeps: Mapping[str, pd.DataFrame], subsamples: Mapping[str, pd.DataFrame]) -> Figure:
+    """Figure (e1): histogram PIC against the number of bins, of policies and of episodes.
+
+    Parameters
+    ----------
+    bins_sweeps : mapping of task id to pandas.DataFrame
+        ``bins_sweep.parquet`` (``bins``, ``pic``, ``pic_miller_madow``).
+    subsamples : mapping of task id to pandas.DataFrame
+        ``subsample_sweep.parquet`` (``policies``, ``episodes``, ``pic``).
+    """
+    tasks = sorted(bins_sweeps, key=task_sort_key)
+    palette = task_palette(tasks)
+    with paper_style():
+        figure, axes = _figure(1, 3, 2.6, sharey=True)
+        for task in tasks:
+            sweep, sub = bins_sweeps[task], subsamples[task]
+            colour, marker = palette[task], REWARD_MARKERS.get(split_task_id(task)[1], "s")
+            axes[0, 0].plot(sweep["bins"], sweep["pic"], color=colour, marker=marker, markersize=3,
+                            label=task_label(task))
+            axes[0, 0].plot(sweep["bins"], sweep["pic_miller_madow"], color=colour, linestyle=":", linewidth=1.0)
+            by_policies = sub[sub["episodes"] == sub["episodes"].max()]
+            axes[0, 1].plot(by_policies["policies"], by_policies["pic"], color=colour, marker=marker, markersize=3)
+            by_episodes = sub[sub["policies"] == sub["policies"].max()]
+            axes[0, 2].plot(by_episodes["episodes"], by_episodes["pic"], color=colour, marker=marker, markersize=3)
+        labels = ("bins B (log scale)", "policies N (log scale), all episodes", "episodes M (log scale), all policies")
+        sizes = (
+            sorted({int(b) for t in tasks for b in bins_sweeps[t]["bins"]}),
+            sorted({int(n) for t in tasks for n in subsamples[t]["policies"]}),
+            sorted({int(m) for t in tasks for m in subsamples[t]["episodes"]}),
+        )
+        for ax, xlabel, ticks in zip(axes[0], labels, sizes, strict=True):
+            ax.set_xscale("log")
+            ax.set_xticks(ticks, [f"{t:,}" for t in ticks])
+            ax.xaxis.set_minor_locator(mpl.ticker.NullLocator())
+            ax.set_xlabel(xlabel)
+            ax.grid(linewidth=0.3, alpha=0.5)
+        axes[0, 0].set_ylabel("PIC (nats)")
+        axes[0, 0].set_title("solid: histogram, dotted: Miller–Madow")
+        axes[0, 1].set_title("histogram PIC vs policies")
+        axes[0, 2].set_title("histogram PIC vs episodes")
+        figure.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside lower center", ncol=4, frameon=False)
+    return figure
+
+
+def null_figure(nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.DataFrame]) -> Figure:
+    """Figure (e2): observed PIC and POIC of each task against their permutation null.
+
+    The observed value is an open ring, so that a null lying on top of it stays visible.
+
+    Parameters
+    ----------
+    nulls : mapping of task id to pandas.DataFrame
+        ``null.parquet`` (``pic``, ``poic`` per permutation).
+    summaries : mapping of task id to pandas.DataFrame
+        ``null_summary.parquet`` (``metric``, ``observed``, ``null_mean``, ``null_sd``).
+    """
+    tasks = sorted(nulls, key=task_sort_key)
+    palette = task_palette(tasks)
+    with paper_style():
+        figure, axes = _figure(1, 2, 0.32 * len(tasks) + 0.9, sharey=True)
+        for ax, metric in zip(axes[0], ("pic", "poic"), strict=True):
+            for position, task in enumerate(tasks):
+                draws = nulls[task][metric].to_numpy()
+                row = summaries[task].set_index("metric").loc[metric]
+                ax.scatter(draws, np.full(draws.size, position), s=8, color="0.6", marker="|", linewidths=0.8,
+                           label="permutation null" if position == 0 else None, zorder=2)
+                ax.errorbar(row["null_mean"], position, xerr=row["null_sd"], color="0.3", capsize=2,
+                            linewidth=0.8, marker="s", markersize=3,
+                            label="null mean ± sd" if position == 0 else None, zorder=3)
+                ax.scatter(row["observed"], position, s=60, facecolors="none", edgecolors=palette[task],
+                           linewidths=1.6, label="observed" if position == 0 else None, zorder=4)
+            ax.set_xlabel(f"{metric.upper()} (nats)")
+            ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
+            ax.grid(axis="x", linewidth=0.3, alpha=0.5)
+        axes[0, 0].set_yticks(range(len(tasks)), [task_label(t) for t in tasks])
+        axes[0, 0].invert_yaxis()  # the axes share y: invert once, first task on top
+        axes[0, 1].legend(frameon=False, loc="best")
+    return figure
+
+
+# (f) Ablation: overlaid RWG trios -------------------------------------------------------------
+
+
+def _as_policies(data: object) -> tuple[pd.DataFrame, np.ndarray | None]:
+    if isinstance(data, pd.DataFrame):
+        return data, None
+    returns = np.asarray(data, dtype=np.float64)
+    return policy_statistics(returns), returns
+
+
+def ablation_figure(variants: Mapping[str, object], *, title: str = "") -> Figure:
+    """Figure (f): the RWG trios of several variants of one task, overlaid.
+
+    Parameters
+    ----------
+    variants : mapping of label to numpy.ndarray (N, M) or pandas.DataFrame
+        Per variant (e.g. a network or prior), its return matrix or its policy table
+        (:func:`~taskcomplexity.metrics.policy_statistics`). Variants may differ in N: ranks are
+        shown as a fraction of N.
+    title : str
+        Figure title (e.g. the task).
+    """
+    colours = sns.color_palette("colorblind", max(len(variants), 1)).as_hex()
+    with paper_style():
+        figure, axes = _figure(1, 3, 2.5)
+        histogram, ranked, spread = axes[0]
+        for colour, (name, data) in zip(colours, variants.items(), strict=False):
+            policies, _ = _as_policies(data)
+            histogram.hist(policies["scaled_mean"], bins=50, range=(0, 1), histtype="step", color=colour,
+                           linewidth=1.0, label=name)
+            ordered = policies.sort_values("rank")
+            ranked.plot(ordered["rank"] / len(ordered), ordered["mean"], color=colour, linewidth=1.2)
+            spread.scatter(policies["mean"], policies["std"], s=_dot_size(len(policies)) * 2, color=colour,
+                           alpha=min(0.8, _dot_alpha(len(policies)) * 3), linewidths=0, rasterized=True)
+        _log_counts(histogram)
+        histogram.set_xlabel("scaled mean return Mₙ′ (min–max)")
+        histogram.set_ylabel("policies (log scale)")
+        ranked.set_xlabel("policy rank Rₙ / N")
+        ranked.set_ylabel(f"mean return Mₙ ({RETURN_UNIT})")
+        spread.set_xlabel(f"mean return Mₙ ({RETURN_UNIT})")
+        spread.set_ylabel(f"sd √Vₙ ({RETURN_UNIT})")
+        figure.legend(*histogram.get_legend_handles_labels(), loc="outside lower center",
+                      ncol=min(len(variants), 5), frameon=False)
+        if title:
+            figure.suptitle(title, fontsize=9, fontweight="bold")
+    return figure

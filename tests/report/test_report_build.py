@@ -1,0 +1,193 @@
+"""End to end: a smoke-size study of the seven tasks through the real stages into a complete report.
+
+One module-scoped study (N = 20 policies × M = 8 episodes per task) is built with the real RWG, metrics and
+diagnostics stages, plus synthetic SAC curves; the tests read what ``build_report`` wrote.
+"""
+
+from __future__ import annotations
+
+import base64
+from dataclasses import replace
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from taskcomplexity.metrics import RELATIONS, TASKS
+from taskcomplexity.pipeline.cache import Cache
+from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.pipeline.metrics_stage import MetricsSettings
+from taskcomplexity.pipeline.rwg_stage import RWGRequest, load_returns
+from taskcomplexity.pipeline.study import study_metrics
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.report.build import build_report
+from taskcomplexity.report.verdict import ESTIMATOR_METRICS, RWG_METRICS, label
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.tasks.spec import task_from_id
+
+FIGURES = ("rwg_trios", "bootstrap", "score_scatter", "sac_curves", "diagnostics_bins", "diagnostics_null",
+           "ablation_one_link_1m0_dense")
+TABLES = ("table1_pic_poic", "bootstrap_intervals", "welch_pic", "welch_poic", "rwg_statistics", "sac_summary",
+          "verdict_matrix", "verdict_summary", "verdict", "diagnostics_estimators", "diagnostics_bins",
+          "verdict_survival")
+
+
+def synthetic_curves(tasks, seeds=(0, 1, 2)) -> pd.DataFrame:
+    """Plausible SAC curves: exponential approach to a plateau, slower for harder tasks, HER on sparse tasks."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for rank, task in enumerate(tasks):
+        sparse = task.endswith("sparse")
+        for variant in ("sac", "sac+her") if sparse else ("sac",):
+            for seed in seeds:
+                for step in range(0, 20_001, 1000):
+                    learned = 1 - np.exp(-step / (2000.0 * (rank + 1)))
+                    value = (-50 + 45 * learned if sparse else -30 + 28 * learned) + rng.normal(0, 0.5)
+                    rows.append({"task": task, "variant": variant, "seed": seed, "env_step": step,
+                                 "eval/return_mean": value, "eval/return_std": 1.0, "eval/success_rate": learned,
+                                 "train/episode_return": value - 1, "time/seconds": step / 1000})
+    return pd.DataFrame(rows)
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    root = tmp_path_factory.mktemp("study")
+    cache = Cache(root / "cache")
+    requests = [RWGRequest(task_from_id(t), NetworkSpec(), PriorSpec(), RWGSettings(policies=20, episodes=8, seed=0))
+                for t in TASKS]
+    settings = MetricsSettings(bins=1000, resamples=20)
+    results = study_metrics(cache, requests, settings)
+    diagnostics = study_diagnostics(cache, {r.task_id: r.rwg for r in results}, settings, DiagnosticsSettings())
+    return root, results, diagnostics
+
+
+@pytest.fixture(scope="module")
+def report(study):
+    root, results, diagnostics = study
+    returns = load_returns(results[0].rwg)
+    ablation = {results[0].task_id: {"normal prior": returns, "halved returns": returns / 2}}
+    index = build_report(results, diagnostics=diagnostics, sac_curves=synthetic_curves(TASKS),
+                         out_dir=root / "report", title="Smoke study", ablation=ablation)
+    return index
+
+
+class PageParser(HTMLParser):
+    """Collects every URL-bearing attribute, the tags used, and the text."""
+
+    def __init__(self):
+        super().__init__()
+        self.urls: list[tuple[str, str, str]] = []
+        self.tags: set[str] = set()
+        self.text: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.add(tag)
+        for name, value in attrs:
+            if name in ("src", "href", "data", "poster", "srcset", "action"):
+                self.urls.append((tag, name, value or ""))
+
+    def handle_data(self, data):
+        self.text.append(data)
+
+
+def parse(index: Path) -> PageParser:
+    parser = PageParser()
+    parser.feed(index.read_text(encoding="utf-8"))
+    return parser
+
+
+def test_every_figure_is_written_as_png_and_pdf(report):
+    for name in FIGURES:
+        for suffix in (".png", ".pdf"):
+            path = report.parent / "figures" / f"{name}{suffix}"
+            assert path.is_file() and path.stat().st_size > 1000, path
+
+
+def test_every_table_is_written_as_markdown_latex_and_csv(report):
+    for name in TABLES:
+        for suffix in (".md", ".tex", ".csv"):
+            path = report.parent / "tables" / f"{name}{suffix}"
+            assert path.is_file() and path.stat().st_size > 0, path
+    assert (report.parent / "report.md").stat().st_size > 0
+
+
+def test_latex_tables_compile_with_pdflatex_defaults(report):
+    # pdflatex with utf8 input knows the en dash; every other symbol must have become a LaTeX command.
+    for path in (report.parent / "tables").glob("*.tex"):
+        text = path.read_text(encoding="utf-8")
+        assert set(text) - set(map(chr, range(128))) <= {"–"}, path.name
+        assert "<" not in text.replace("$<$", "") and "|" not in text.replace("$|$", ""), path.name
+
+
+def test_the_page_embeds_its_images_and_links_only_to_files_that_exist(report):
+    page = parse(report)
+    assert not page.tags & {"script", "link", "iframe", "object", "embed"}
+    images = [value for tag, name, value in page.urls if tag == "img"]
+    assert len(images) == len(FIGURES)
+    for value in images:
+        assert value.startswith("data:image/png;base64,")
+        assert base64.b64decode(value.split(",", 1)[1])[:4] == b"\x89PNG"
+    links = [value for tag, name, value in page.urls if tag != "img"]
+    assert links
+    for value in links:
+        assert "://" not in value and not value.startswith("/")
+        assert (report.parent / value).is_file(), value
+    assert "url(" not in report.read_text(encoding="utf-8")  # no external fonts or images in the style sheet
+
+
+def test_the_page_opens_with_the_verdict_then_the_methods(report):
+    html = report.read_text(encoding="utf-8")
+    assert html.index('class="verdict"') < html.index('class="methods"') < html.index("<h2>1.")
+    text = " ".join(parse(report).text)
+    assert f"Against the {len(RELATIONS)} known complexity relations, PIC agrees with" in text
+    assert "SAC curves were not computed" not in text
+
+
+def test_figures_and_tables_are_numbered_in_page_order(report):
+    text = " ".join(parse(report).text)
+    for kind, count in (("Figure", len(FIGURES)), ("Table", len(TABLES))):
+        numbers = [int(n) for n in pd.Series(text).str.findall(rf"{kind} (\d+)\.").iloc[0]]
+        assert numbers == list(range(1, count + 1)), kind
+
+
+def test_the_verdict_has_a_row_for_every_relation_and_metric(report):
+    verdict = pd.read_csv(report.parent / "tables" / "verdict.csv")
+    every_task = [label(m) for m in (*RWG_METRICS, *ESTIMATOR_METRICS, "sac_final", "sac_auc")]
+    for metric in every_task:
+        rows = verdict[verdict["Metric"] == metric]
+        assert len(rows) == len(RELATIONS), metric
+        assert len(set(zip(rows["Easier task"], rows["Harder task"], strict=True))) == len(RELATIONS), metric
+    # SAC + HER ran on the sparse tasks only: it judges the relations between two sparse tasks.
+    sparse = [r for r in RELATIONS if r.easier.endswith("sparse") and r.harder.endswith("sparse")]
+    assert (verdict["Metric"] == label("sac_her_final")).sum() == len(sparse)
+    assert set(verdict["Outcome"]) <= {"agree", "contradict", "not significant", "undefined"}
+
+
+def test_the_markdown_report_links_existing_figures(report):
+    text = (report.parent / "report.md").read_text(encoding="utf-8")
+    linked = [line.split("](", 1)[1].rstrip(")") for line in text.splitlines() if line.startswith("![")]
+    assert len(linked) == len(FIGURES)
+    assert all((report.parent / path).is_file() for path in linked)
+
+
+def test_without_sac_curves_or_diagnostics_the_page_says_so(study, tmp_path):
+    _, results, _ = study
+    index = build_report(results[:2], diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Two tasks")
+    text = " ".join(parse(index).text)
+    assert "SAC curves were not computed" in text
+    assert "diagnostics" in text and "were not computed for this report" in text
+    assert not (tmp_path / "figures" / "sac_curves.png").exists()
+    verdict = pd.read_csv(tmp_path / "tables" / "verdict.csv")
+    assert set(verdict["Metric"]) == {"PIC", "POIC", "score_R", "mean return", "variance"}
+
+
+def test_entries_that_are_not_task_ids_get_a_report_without_relations(study, tmp_path):
+    # An ablation study names its entries by sampler ("default", "U(-1, 1)"): no known relation applies.
+    _, results, _ = study
+    named = [replace(results[0], task_id="default"), replace(results[1], task_id="U(-1, 1)")]
+    index = build_report(named, diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Samplers")
+    text = " ".join(parse(index).text)
+    assert "No known relation could be checked" in text
+    assert "U(-1, 1)" in text

@@ -1,0 +1,75 @@
+"""Figures: one colour per task everywhere, episode dots at their policy's rank, files on disk."""
+
+from __future__ import annotations
+
+import matplotlib as mpl
+import numpy as np
+import pandas as pd
+import pytest
+
+from taskcomplexity.metrics import TASKS, policy_statistics
+from taskcomplexity.report import figures as fig
+
+
+def test_a_task_keeps_its_colour_whichever_tasks_are_shown():
+    everything = fig.task_palette(TASKS)
+    assert len(set(everything.values())) == len(TASKS)
+    assert fig.task_palette(["two_link-sparse", "one_link_1m0-dense"]) == {
+        "one_link_1m0-dense": everything["one_link_1m0-dense"],
+        "two_link-sparse": everything["two_link-sparse"],
+    }
+    extra = fig.task_palette([*TASKS, "three_link-dense"])
+    assert extra["three_link-dense"] not in everything.values()
+
+
+def test_episode_dots_sit_at_their_policys_rank_not_its_sampling_index():
+    returns = np.array([[5.0, 7.0], [1.0, 3.0], [9.0, 11.0]])  # means 6, 2, 10 → ranks 2, 1, 3
+    ranks = policy_statistics(returns)["rank"].to_numpy()
+    x, y = fig.episode_dots(returns, ranks)
+    assert x.tolist() == [2, 2, 1, 1, 3, 3]
+    assert y.tolist() == [5.0, 7.0, 1.0, 3.0, 9.0, 11.0]
+
+
+def test_many_episode_dots_are_subsampled_the_same_way_every_time():
+    returns = np.random.default_rng(0).normal(size=(300, 50))
+    ranks = policy_statistics(returns)["rank"].to_numpy()
+    first = fig.episode_dots(returns, ranks, max_dots=1000)
+    second = fig.episode_dots(returns, ranks, max_dots=1000)
+    assert first[0].size == 1000
+    np.testing.assert_array_equal(first[1], second[1])
+    assert set(first[1]) <= set(returns.ravel())
+
+
+def test_pearson_is_undefined_for_a_constant_side_or_fewer_than_three_points():
+    assert np.isnan(fig.pearson(np.array([1.0, 2.0, 3.0]), np.array([4.0, 4.0, 4.0]))[0])
+    assert np.isnan(fig.pearson(np.array([1.0, 2.0]), np.array([1.0, 2.0]))[0])
+    r, p = fig.pearson(np.array([1.0, 2.0, 3.0, 4.0]), np.array([2.0, 4.0, 6.0, 8.5]))
+    assert r == pytest.approx(1.0, abs=0.01) and p < 0.05
+
+
+def test_the_seed_band_is_the_95_percent_t_interval_of_the_mean():
+    values = pd.DataFrame({"env_step": [1, 1, 1, 2], "seed": [0, 1, 2, 0], "r": [1.0, 2.0, 3.0, 5.0]})
+    band = fig.seed_band(values, "r").set_index("env_step")
+    half = 4.302652729911275 * 1.0 / np.sqrt(3)  # t(0.975, 2 dof) · sd / √n
+    assert band.loc[1, "low"] == pytest.approx(2.0 - half) and band.loc[1, "high"] == pytest.approx(2.0 + half)
+    assert np.isnan(band.loc[2, "low"])  # one seed: no band
+
+
+def test_figures_are_saved_as_png_and_pdf_without_touching_global_state(tmp_path):
+    before = dict(mpl.rcParams)
+    returns = np.random.default_rng(1).normal(size=(40, 6))
+    figure = fig.rwg_trio_figure("two_link-dense", policy_statistics(returns), returns=returns)
+    paths = fig.save_figure(figure, tmp_path, "trio")
+    assert [p.name for p in paths] == ["trio.png", "trio.pdf"]
+    assert paths[0].read_bytes()[:4] == b"\x89PNG" and paths[1].read_bytes()[:4] == b"%PDF"
+    assert dict(mpl.rcParams) == before
+    labels = [ax.get_ylabel() for ax in figure.axes]
+    assert labels == ["policies (log scale)", "return (sum of rewards)", "sd √Vₙ (sum of rewards)"]
+
+
+def test_the_ablation_overlays_returns_and_policy_tables_of_different_sizes():
+    rng = np.random.default_rng(2)
+    figure = fig.ablation_figure({"N = 30": rng.normal(size=(30, 5)), "N = 60": policy_statistics(rng.normal(size=(60, 5)))},
+                                 title="two_link-dense")
+    ranked = figure.axes[1]
+    assert [line.get_xdata().max() for line in ranked.get_lines()] == [1.0, 1.0]
