@@ -17,7 +17,7 @@ from taskcomplexity.config import build, task_from_config
 from taskcomplexity.errors import ConfigError, TaskComplexityError
 
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
-GROUPS = ("arm", "reward", "prior", "network", "rwg", "metrics", "sac", "report", "study", "experiment")
+GROUPS = ("arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "sac", "report", "study", "experiment")
 EXIT_BAD_INPUT = 2
 
 log = logging.getLogger("taskcomplexity")
