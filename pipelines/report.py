@@ -1,7 +1,7 @@
 """Report stage: pull every artefact of the study from the cache (computing what is missing) and
 write ``outputs/reports/<study>-<tag>/`` (index.html, report.md, figures/, tables/).
 
-The report needs every upstream artefact, so this is the study chain itself; when everything is
+The report needs every upstream artefact, so this runs the study chain itself; when everything is
 cached it only draws the figures and writes the page.
 
     python pipelines/report.py experiment=quick
@@ -11,8 +11,17 @@ from __future__ import annotations
 
 import sys
 
-from study import main  # the same @hydra.main entry point (pipelines/ is on sys.path as the script dir)
+import hydra
+from omegaconf import DictConfig
+
 from taskcomplexity.cli import check_overrides
+from taskcomplexity.pipeline.chain import run_study
+
+
+@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+def main(cfg: DictConfig) -> None:
+    run_study(cfg)
+
 
 if __name__ == "__main__":
     check_overrides(sys.argv)
