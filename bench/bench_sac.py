@@ -1,0 +1,152 @@
+"""SAC training throughput on the 1-link dense task, and the projected time of the paper protocol.
+
+Throughput is measured in environment steps per second summed over seeds ("seed-steps/s"), with one
+gradient update per step and the protocol's evaluation schedule (10 episodes every 1000 steps),
+after the warm-up, for:
+
+1. one seed (``train_sac``),
+2. five seeds trained together (``train_sac_seeds``, stacked parameters, one env per seed),
+3. two such five-seed runs at once in two processes (what a 2-core machine does with two tasks in
+   flight, e.g. ``hydra/launcher=joblib``), summed.
+
+The projection divides the paper protocol's seed-steps (every task's budget × 5 seeds, plus the
+SAC+HER runs of the sparse tasks) by each throughput; a refined line corrects each task for its own
+environment-step cost (the 2-link arms step more slowly in PyBullet), measured with random actions.
+
+Timings are wall-clock; the "CPU share" column (process CPU time / wall time) shows how much of a
+core each run actually had — below ~0.95 the machine was busy with other work and the figures are
+pessimistic. Usage: ``.venv/bin/python bench/bench_sac.py [--steps 2000] [--no-concurrent]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import sys
+import time
+
+import torch
+
+import taskcomplexity  # noqa: F401 - registers the tasks
+from taskcomplexity.rl import SACSettings, protocol_variants, train_sac, train_sac_seeds
+from taskcomplexity.rl.factories import make_env
+from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+
+BENCH_TASK = ("one_link_1m0", "dense")
+PAPER_SEEDS = 5
+WARMUP = 1000
+ENV_PROBE_STEPS = 300
+ENV_PROBE_WARMUP = 20
+
+
+def paper_runs() -> list[tuple[str, str, bool, int]]:
+    """(arm, reward, her, budget per seed) of every run of the paper protocol."""
+    paper = SACSettings()  # the defaults are the published protocol
+    runs = []
+    for arm, reward in STUDY_TASKS:
+        task = make_task(arm, reward)
+        runs += [(arm, reward, v.her, v.steps_for(task)) for v in protocol_variants(task, paper)]
+    return runs
+
+
+def measure(seeds: tuple[int, ...], steps: int) -> dict[str, float]:
+    """Steady-state seed-steps/s of one training run on the bench task (after a 1000-step warm-up)."""
+    settings = SACSettings(
+        total_steps=WARMUP + steps,
+        warmup_steps=WARMUP,
+        eval_every=1000 if steps % 1000 == 0 else steps,
+        eval_episodes=10,
+        checkpoint_every=100_000,
+        seeds=seeds,
+        num_threads=1,
+    )
+    task = make_task(*BENCH_TASK)
+    wall, cpu = time.perf_counter(), time.process_time()
+    if len(seeds) == 1:
+        curve = train_sac(task, settings, seed=seeds[0])
+    else:
+        curve = train_sac_seeds(task, settings)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    seconds = curve.groupby("env_step")["time/seconds"].first()
+    steady = seconds[WARMUP + steps] - seconds[WARMUP]
+    return {"rate": len(seeds) * steps / steady, "cpu_share": cpu / wall, "wall": wall}
+
+
+def _measure_worker(args: tuple[tuple[int, ...], int]) -> dict[str, float]:
+    return measure(*args)
+
+
+def env_step_seconds(arm: str, reward: str, her: bool, instances: int = PAPER_SEEDS) -> float:
+    """Seconds per environment step and instance of ``make_env`` with random actions."""
+    env = make_env(make_task(arm, reward), instances, goal_conditioned=her)
+    try:
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(0)
+            td = env.reset(seed=list(range(instances)))
+            for step in range(ENV_PROBE_WARMUP + ENV_PROBE_STEPS):
+                if step == ENV_PROBE_WARMUP:
+                    start = time.perf_counter()
+                _, td = env.step_and_maybe_reset(env.rand_action(td))
+            return (time.perf_counter() - start) / (ENV_PROBE_STEPS * instances)
+    finally:
+        env.close()
+
+
+def hours(seconds: float) -> str:
+    return f"{seconds / 3600:5.2f} h"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=2000, help="measured steps per seed after the warm-up")
+    parser.add_argument("--no-concurrent", action="store_true", help="skip the two-process measurement")
+    args = parser.parse_args()
+
+    runs = paper_runs()
+    seed_steps = sum(budget for *_, budget in runs) * PAPER_SEEDS
+    probe = {(arm, reward, her): env_step_seconds(arm, reward, her) for arm, reward, her, _ in runs}
+    reference = probe[(*BENCH_TASK, False)]
+
+    load_before = os.getloadavg()[0]
+    results: dict[str, dict[str, float]] = {}
+    results["1 seed"] = measure((0,), args.steps) | {"processes": 1}
+    results["5 seeds together"] = measure(tuple(range(PAPER_SEEDS)), args.steps) | {"processes": 1}
+    if not args.no_concurrent:
+        with multiprocessing.get_context("spawn").Pool(2) as pool:
+            pair = pool.map(_measure_worker, [(tuple(range(PAPER_SEEDS)), args.steps)] * 2)
+        results["2 processes × 5 seeds"] = {
+            "rate": sum(r["rate"] for r in pair),
+            "cpu_share": sum(r["cpu_share"] for r in pair) / 2,
+            "wall": max(r["wall"] for r in pair),
+            "processes": 2,
+        }
+    load_after = os.getloadavg()[0]
+
+    print(f"\nSAC throughput on {'-'.join(BENCH_TASK)}: one update per step, batch 64, 2×256 MLPs, "
+          f"evaluation 10 episodes / 1000 steps; torch {torch.__version__}, {os.cpu_count()} CPUs, "
+          f"1 torch thread per process, load average {load_before:.1f} → {load_after:.1f}\n")
+    header = f"{'configuration':<24} {'seed-steps/s':>12} {'CPU share':>9} {'paper protocol':>15} {'refined':>9}"
+    print(header)
+    print("-" * len(header))
+    for name, result in results.items():
+        rate = result["rate"]
+        # refined: each run pays its own env-step cost instead of the bench task's (shared by the
+        # processes running at once)
+        per_step = 1.0 / rate
+        refined = sum(
+            budget * PAPER_SEEDS * (per_step + (probe[(arm, reward, her)] - reference) / result["processes"])
+            for arm, reward, her, budget in runs
+        )
+        print(f"{name:<24} {rate:12.0f} {result['cpu_share']:9.2f} {hours(seed_steps / rate):>15} {hours(refined):>9}")
+    print(
+        f"\npaper protocol: {len(runs)} runs (7 tasks + SAC+HER on 3 sparse tasks) × {PAPER_SEEDS} seeds = "
+        f"{seed_steps:,} seed-steps; projection = seed-steps / throughput (warm-up counted at full cost)."
+    )
+    print("env step cost per instance (random actions, 5 instances): "
+          + ", ".join(f"{a}-{r}{'+her' if h else ''} {1e6 * s:.0f} µs" for (a, r, h), s in probe.items()))
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,223 @@
+"""The pieces of a SAC run, one ``make_<thing>`` per piece, each from explicit arguments.
+
+Everything is a TorchRL component: our gymnasium tasks behind :class:`~torchrl.envs.GymWrapper`, a
+tanh-Normal :class:`~torchrl.modules.ProbabilisticActor`, :class:`~torchrl.modules.ValueOperator`
+critics on :class:`~torchrl.modules.MLP`, :class:`~torchrl.objectives.SACLoss` with
+:class:`~torchrl.objectives.SoftUpdate`, the synchronous :class:`~torchrl.collectors.Collector`
+(torchrl 0.14's name for ``SyncDataCollector``) and ``TensorDictReplayBuffer`` /
+``HERReplayBuffer`` on ``LazyTensorStorage``.
+
+Several seeds train together: every network holds one parameter set per seed
+(:class:`~taskcomplexity.rl.layers.SeedBatchedLinear` as the MLP's ``layer_class``) and the
+environment is a vector of one task instance per seed, so data carry a leading seed dimension S:
+environment tensordicts are ``(S,)``, minibatches ``(S, batch_size)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import gymnasium
+import torch
+from tensordict.nn import NormalParamExtractor, TensorDictModule, TensorDictSequential
+from torch import nn
+from torchrl.collectors import Collector
+from torchrl.data import Bounded, LazyTensorStorage, TensorDictReplayBuffer
+from torchrl.envs import Compose, DoubleToFloat, EnvBase, GymWrapper, RewardSum, TransformedEnv
+from torchrl.modules import MLP, ProbabilisticActor, TanhNormal, ValueOperator
+from torchrl.objectives import SACLoss, SoftUpdate, ValueEstimators
+
+from taskcomplexity.rl.her import make_her_replay_buffer
+from taskcomplexity.rl.layers import SeedBatchedLinear, reset_seed_parameters
+from taskcomplexity.rl.seeding import derive_seed
+from taskcomplexity.tasks.goal_env import GoalReachingEnv, join_observation
+from taskcomplexity.tasks.spec import TaskSpec
+
+POLICY_INPUT_KEY = "policy_input"
+ACTION_SCALE_LOWER_BOUND = 1e-4  # smallest standard deviation of the Gaussian before tanh
+
+
+def make_env(task: TaskSpec, num_envs: int, *, goal_conditioned: bool) -> TransformedEnv:
+    """``num_envs`` independent instances of ``task`` stepped together, as one TorchRL environment.
+
+    A gymnasium ``SyncVectorEnv`` (auto-reset disabled: TorchRL resets finished instances itself) of
+    ``TimeLimit(ReachingEnv)`` — or ``TimeLimit(GoalReachingEnv(ReachingEnv))`` — wrapped by
+    :class:`~torchrl.envs.GymWrapper`, with ``DoubleToFloat`` (float32 observations) and ``RewardSum``
+    (``episode_reward``: the return so far). Batch size ``(num_envs,)``.
+
+    Seed it through its reset: ``env.reset(seed=[...])`` (one seed per instance).
+    """
+    from taskcomplexity.tasks.pybullet_env import ReachingEnv
+
+    def one() -> gymnasium.Env:
+        env: gymnasium.Env = ReachingEnv(task=task)
+        if goal_conditioned:
+            env = GoalReachingEnv(env)
+        return gymnasium.wrappers.TimeLimit(env, max_episode_steps=task.max_steps)
+
+    vector = gymnasium.vector.SyncVectorEnv(
+        [one] * num_envs, autoreset_mode=gymnasium.vector.AutoresetMode.DISABLED
+    )
+    return TransformedEnv(GymWrapper(vector), Compose(DoubleToFloat(), RewardSum()))
+
+
+class _TaskObservation(nn.Module):
+    """(goal-free observation, desired goal) → the task's observation vector (see ``goal_env``)."""
+
+    def __init__(self, task: TaskSpec):
+        super().__init__()
+        self.task = task
+
+    def forward(self, observation: torch.Tensor, desired_goal: torch.Tensor) -> torch.Tensor:
+        return join_observation(self.task, observation, desired_goal)
+
+
+def _input_modules(task: TaskSpec, goal_conditioned: bool) -> tuple[list[TensorDictModule], str]:
+    """Modules preparing the network input, and its key: the task observation (rebuilt for the goal with HER)."""
+    if goal_conditioned:
+        module = TensorDictModule(
+            _TaskObservation(task), in_keys=["observation", "desired_goal"], out_keys=[POLICY_INPUT_KEY]
+        )
+        return [module], POLICY_INPUT_KEY
+    return [], "observation"
+
+
+def make_actor_critic(
+    task: TaskSpec,
+    *,
+    hidden_sizes: Sequence[int],
+    seeds: Sequence[int],
+    goal_conditioned: bool,
+) -> tuple[ProbabilisticActor, list[TensorDictSequential]]:
+    """A tanh-Normal actor and two Q-networks, each holding one parameter set per seed.
+
+    Parameters
+    ----------
+    task : TaskSpec
+        Input size (the task observation, 9 or 10 values) and action size (1 or 2).
+    hidden_sizes : sequence of int
+        Hidden widths of every MLP (ReLU).
+    seeds : sequence of int
+        One parameter set per seed, initialised like ``nn.Linear`` from that seed alone.
+    goal_conditioned : bool
+        Read ``observation`` and ``desired_goal`` (HER) instead of the task ``observation``; the task
+        observation is rebuilt from them, so both variants see the same inputs.
+
+    Returns
+    -------
+    actor : ProbabilisticActor
+        Writes ``action`` (S, ..., n_act) in [−1, 1]: tanh of a Gaussian sample (or of its mean under
+        ``ExplorationType.DETERMINISTIC``).
+    critics : list of two TensorDictSequential
+        Write ``state_action_value`` (S, ..., 1).
+    """
+    layer = {"layer_class": SeedBatchedLinear, "layer_kwargs": {"seeds": len(seeds)}}
+    n_obs, n_act = task.observation_size, task.action_size
+    body = nn.Sequential(
+        MLP(in_features=n_obs, out_features=2 * n_act, num_cells=list(hidden_sizes), activation_class=nn.ReLU, **layer),
+        NormalParamExtractor(scale_mapping="biased_softplus_1.0", scale_lb=ACTION_SCALE_LOWER_BOUND),
+    )
+    reset_seed_parameters(body, [derive_seed(seed, "actor") for seed in seeds])
+    inputs, input_key = _input_modules(task, goal_conditioned)
+    actor = ProbabilisticActor(
+        TensorDictSequential(*inputs, TensorDictModule(body, in_keys=[input_key], out_keys=["loc", "scale"])),
+        in_keys=["loc", "scale"],
+        spec=Bounded(-1.0, 1.0, (n_act,)),
+        distribution_class=TanhNormal,
+        distribution_kwargs={"low": -1.0, "high": 1.0},
+    )
+    critics = []
+    for index in range(2):
+        mlp = MLP(
+            in_features=n_obs + n_act, out_features=1, num_cells=list(hidden_sizes), activation_class=nn.ReLU, **layer
+        )
+        reset_seed_parameters(mlp, [derive_seed(seed, "critic", index) for seed in seeds])
+        inputs, input_key = _input_modules(task, goal_conditioned)
+        critics.append(TensorDictSequential(*inputs, ValueOperator(mlp, in_keys=[input_key, "action"])))
+    return actor, critics
+
+
+def make_loss(
+    actor: ProbabilisticActor,
+    critics: list[TensorDictSequential],
+    *,
+    gamma: float,
+    alpha: float,
+    loss_function: str,
+) -> SACLoss:
+    """TorchRL's SAC loss (v2: no state-value network) with twin Q-networks and a fixed α.
+
+    The critic target is the one-step TD target r + γ·(1 − terminated)·(min_i Q'_i(s', a') − α log π(a'|s')),
+    a' ~ π(·|s'), Q'_i the target networks.
+    """
+    loss = SACLoss(
+        actor,
+        critics,
+        num_qvalue_nets=len(critics),
+        loss_function=loss_function,
+        alpha_init=alpha,
+        fixed_alpha=True,
+        target_entropy=-float(actor.spec["action"].shape[-1]),
+    )
+    loss.make_value_estimator(ValueEstimators.TD0, gamma=gamma)
+    return loss
+
+
+def make_target_updater(loss: SACLoss, *, tau: float) -> SoftUpdate:
+    """Polyak averaging of the target critics, θ' ← (1 − τ)θ' + τθ, on every ``step()``."""
+    return SoftUpdate(loss, tau=tau)
+
+
+def make_optimisers(loss: SACLoss, *, actor_lr: float, critic_lr: float) -> tuple[torch.optim.Adam, torch.optim.Adam]:
+    """Adam for the actor and Adam for both critics (element-wise, so the seeds stay independent)."""
+    actor_params = list(loss.actor_network_params.flatten_keys().values())
+    critic_params = list(loss.qvalue_network_params.flatten_keys().values())
+    return (
+        torch.optim.Adam(actor_params, lr=actor_lr, fused=True),
+        torch.optim.Adam(critic_params, lr=critic_lr, fused=True),
+    )
+
+
+def make_collector(
+    env: EnvBase,
+    policy: ProbabilisticActor,
+    *,
+    frames_per_batch: int,
+    init_random_frames: int,
+) -> Collector:
+    """TorchRL's synchronous collector: ``frames_per_batch`` frames (all seeds) per batch, endless.
+
+    The first ``init_random_frames`` frames use uniformly random actions (the warm-up); finished
+    episodes are reset automatically. Batches are shaped ``(S, frames_per_batch // S)``.
+    """
+    return Collector(
+        env,
+        policy,
+        frames_per_batch=frames_per_batch,
+        total_frames=-1,
+        init_random_frames=init_random_frames,
+        split_trajs=False,
+        # The policy is not recurrent: it needs no InitTracker/primer transforms on the env.
+        auto_register_policy_transforms=False,
+    )
+
+
+def make_replay_buffers(
+    task: TaskSpec,
+    *,
+    num_buffers: int,
+    capacity: int,
+    her: bool,
+    her_ratio: float,
+    her_strategy: str,
+) -> list[TensorDictReplayBuffer]:
+    """One replay buffer per seed: uniform sampling with replacement from a ``LazyTensorStorage``.
+
+    With ``her`` the buffers are :class:`~torchrl.data.HERReplayBuffer` (see ``taskcomplexity.rl.her``).
+    """
+    if her:
+        return [
+            make_her_replay_buffer(task, capacity, her_ratio=her_ratio, strategy=her_strategy)
+            for _ in range(num_buffers)
+        ]
+    return [TensorDictReplayBuffer(storage=LazyTensorStorage(capacity)) for _ in range(num_buffers)]

@@ -1,0 +1,188 @@
+"""Every hyper-parameter of the SAC (+HER) stage, as one frozen dataclass (``conf/sac/*.yaml``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.tasks.spec import TaskSpec
+
+HER_STRATEGIES = ("future", "final", "episode", "random")
+LOSS_FUNCTIONS = ("l2", "l1", "smooth_l1")
+
+# Reference budgets of shared/spec/sac.md: environment steps per seed, by task id.
+PAPER_BUDGETS: dict[str, int] = {
+    "one_link_1m0-dense": 50_000,
+    "one_link_1m0-sparse": 50_000,
+    "one_link_1m65-dense": 50_000,
+    "one_link_1m65-sparse": 50_000,
+    "two_link-dense": 100_000,
+    "two_link-sparse": 200_000,
+    "two_link_obstacle-dense": 200_000,
+}
+
+
+@dataclass(frozen=True)
+class SACSettings:
+    """Soft Actor-Critic with twin Q-networks, a fixed entropy coefficient, and optional HER.
+
+    Attributes
+    ----------
+    enabled : bool
+        Whether the study runs the SAC stage at all (read by the pipeline; ``train_sac`` ignores it).
+    hidden_sizes : tuple of int
+        Hidden layer widths of the actor and of each critic (ReLU).
+    actor_lr, critic_lr : float
+        Adam learning rates.
+    gamma : float
+        Discount γ.
+    alpha : float
+        Fixed entropy coefficient α (no automatic tuning).
+    tau : float
+        Target-network smoothing: θ' ← (1 − τ)·θ' + τ·θ after every update.
+    loss_function : {'l2', 'l1', 'smooth_l1'}
+        Critic regression loss (SAC uses the squared error, ``l2``).
+    batch_size : int
+        Minibatch size of every gradient update, per seed.
+    buffer_size : int
+        Replay capacity, transitions per seed (a run never stores more than its budget).
+    updates_per_step : int
+        Gradient updates per environment step (1 in the protocol).
+    collect_steps : int
+        Environment steps per seed collected between two rounds of updates; each round then makes
+        ``collect_steps × updates_per_step`` updates, so the ratio is exact at every round boundary.
+        1 alternates step and update strictly; larger values amortise the collector's overhead.
+    warmup_steps : int
+        Initial environment steps with uniform random actions and no updates.
+    eval_every : int
+        Environment steps between two deterministic evaluations (also run at step 0 and at the end).
+    eval_episodes : int
+        Episodes per evaluation and seed (mean action; the same start states at every evaluation).
+    budgets : dict of str to int
+        Environment steps per seed, by task id (``arm-reward``); a ``sac+her`` run uses its task's.
+    total_steps : int or None
+        If set, the budget of every task (overrides ``budgets``).
+    seeds : tuple of int
+        The seeds of the protocol.
+    train_seeds_together : bool
+        Train all of ``seeds`` in one vectorised run (stacked parameters, one environment per seed).
+    her : bool
+        Hindsight Experience Replay on goal-conditioned observations (variant ``sac+her``).
+    her_ratio : float
+        Fraction of each sampled minibatch whose goal is relabelled (0.8 ≡ k = 4 relabelled goals per
+        original one, in the terms of Andrychowicz et al., 2017).
+    her_strategy : {'future', 'final', 'episode', 'random'}
+        Where relabelled goals come from (``future``: an achieved goal later in the same episode).
+    checkpoint_every : int
+        Environment steps between checkpoints (and between the forced environment resets that make
+        a resumed run repeat the uninterrupted one exactly; see ``taskcomplexity.rl.train``).
+    num_threads : int
+        torch intra-op threads during training (restored afterwards); 0 keeps torch's setting.
+    """
+
+    enabled: bool = True
+    hidden_sizes: tuple[int, ...] = (256, 256)
+    actor_lr: float = 1e-3
+    critic_lr: float = 1e-3
+    gamma: float = 0.99
+    alpha: float = 0.2
+    tau: float = 0.005
+    loss_function: str = "l2"
+    batch_size: int = 64
+    buffer_size: int = 1_000_000
+    updates_per_step: int = 1
+    collect_steps: int = 10
+    warmup_steps: int = 1000
+    eval_every: int = 1000
+    eval_episodes: int = 10
+    budgets: dict[str, int] = field(default_factory=lambda: dict(PAPER_BUDGETS))
+    total_steps: int | None = None
+    seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
+    train_seeds_together: bool = True
+    her: bool = False
+    her_ratio: float = 0.8
+    her_strategy: str = "future"
+    checkpoint_every: int = 10_000
+    num_threads: int = 1
+
+    @property
+    def variant(self) -> str:
+        """``"sac+her"`` or ``"sac"``: the ``variant`` column of the learning curves."""
+        return "sac+her" if self.her else "sac"
+
+    def steps_for(self, task: TaskSpec) -> int:
+        """The run's budget for ``task`` (environment steps per seed).
+
+        Raises
+        ------
+        ConfigError
+            If ``total_steps`` is unset and ``budgets`` has no entry for the task.
+        """
+        if self.total_steps is not None:
+            return self.total_steps
+        if task.task_id not in self.budgets:
+            raise ConfigError(
+                f"sac.budgets has no entry for task {task.task_id!r} (have: {', '.join(sorted(self.budgets))})"
+            )
+        return self.budgets[task.task_id]
+
+    def validate(self, where: str = "sac") -> SACSettings:
+        """Check types and ranges; raise :class:`ConfigError` naming the key, value and what is allowed."""
+        if not self.hidden_sizes or any(not isinstance(h, int) or h < 1 for h in self.hidden_sizes):
+            raise ConfigError(
+                f"{where}.hidden_sizes must be a non-empty list of integers >= 1, got {list(self.hidden_sizes)}"
+            )
+        for name in ("actor_lr", "critic_lr", "alpha"):
+            _check(where, name, getattr(self, name), "a finite number > 0", lambda v: math.isfinite(v) and v > 0)
+        _check(where, "gamma", self.gamma, "a number in [0, 1]", lambda v: 0 <= v <= 1)
+        _check(where, "tau", self.tau, "a number in (0, 1]", lambda v: 0 < v <= 1)
+        _check(where, "her_ratio", self.her_ratio, "a number in [0, 1]", lambda v: 0 <= v <= 1)
+        if self.loss_function not in LOSS_FUNCTIONS:
+            raise ConfigError(
+                f"{where}.loss_function must be one of {list(LOSS_FUNCTIONS)}, got {self.loss_function!r}"
+            )
+        if self.her_strategy not in HER_STRATEGIES:
+            raise ConfigError(f"{where}.her_strategy must be one of {list(HER_STRATEGIES)}, got {self.her_strategy!r}")
+        for name in ("batch_size", "buffer_size", "updates_per_step", "collect_steps", "eval_every",
+                     "eval_episodes", "checkpoint_every"):
+            _check(where, name, getattr(self, name), "an integer >= 1", lambda v: isinstance(v, int) and v >= 1)
+        _check(where, "warmup_steps", self.warmup_steps, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
+        _check(where, "num_threads", self.num_threads, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
+        if not self.seeds or len(set(self.seeds)) != len(self.seeds) or min(self.seeds) < 0:
+            raise ConfigError(
+                f"{where}.seeds must be a non-empty list of distinct integers >= 0, got {list(self.seeds)}"
+            )
+        for name in ("warmup_steps", "eval_every", "checkpoint_every"):
+            value = getattr(self, name)
+            if value % self.collect_steps:
+                raise ConfigError(
+                    f"{where}.{name} must be a multiple of {where}.collect_steps={self.collect_steps}, got {value}"
+                )
+        budgets = dict(self.budgets) if self.total_steps is None else {"total_steps": self.total_steps}
+        for task_id, steps in budgets.items():
+            key = f"{where}.total_steps" if task_id == "total_steps" else f"{where}.budgets.{task_id}"
+            if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+                raise ConfigError(f"{key} must be an integer >= 1, got {steps!r}")
+            if steps % self.collect_steps:
+                raise ConfigError(
+                    f"{key} must be a multiple of {where}.collect_steps={self.collect_steps}, got {steps}"
+                )
+        return self
+
+
+def _check(where: str, name: str, value, allowed: str, ok) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not ok(value):
+        raise ConfigError(f"{where}.{name} must be {allowed}, got {value!r}")
+
+
+def protocol_variants(task: TaskSpec, settings: SACSettings) -> tuple[SACSettings, ...]:
+    """The runs sac.md asks for on ``task``: SAC, plus SAC + HER when the reward is sparse.
+
+    Returns ``settings`` with ``her=False`` and, for a sparse task, a copy with ``her=True``
+    (``variant`` "sac" and "sac+her").
+    """
+    plain = replace(settings, her=False)
+    if task.reward.kind == "sparse":
+        return plain, replace(settings, her=True)
+    return (plain,)
