@@ -515,11 +515,11 @@ def ablation_figure(variants: Mapping[str, object], *, title: str = "") -> Figur
         histogram.set_xlabel("scaled mean return Mₙ′ (min–max)")
         histogram.set_ylabel("policies (log scale)")
         ranked.set_xlabel("policy rank Rₙ / N")
-        ranked.set_ylabel(f"mean return Mₙ ({RETURN_UNIT})")
+        ranked.set_ylabel("mean return Mₙ")  # units on the right panel's axes: the label must fit 2.5 in
         spread.set_xlabel(f"mean return Mₙ ({RETURN_UNIT})")
         spread.set_ylabel(f"sd √Vₙ ({RETURN_UNIT})")
         figure.legend(*histogram.get_legend_handles_labels(), loc="outside lower center",
-                      ncol=min(len(variants), 5), frameon=False)
+                      ncol=min(len(variants), 6), frameon=False)
         if title:
             figure.suptitle(title, fontsize=9, fontweight="bold")
     return figure
