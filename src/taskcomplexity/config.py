@@ -9,6 +9,7 @@ with one line naming the full key, the value received and what is allowed.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import types
 import typing
 from collections.abc import Mapping, Sequence
@@ -98,12 +99,9 @@ def build(cls: type[T], node: Any, key: str) -> T:
     obj = cls(**kwargs)
     validate = getattr(obj, "validate", None)
     if callable(validate):
-        try:
-            validate()
-        except ConfigError:
-            raise
-        except TypeError:
-            validate(key)
+        # Nested specs (e.g. LinkSpec) name their own key in messages; top-level ones know theirs.
+        takes_key = len(inspect.signature(validate).parameters) == 1
+        validate(key) if takes_key else validate()
     return obj
 
 

@@ -8,7 +8,6 @@ or backend (up to the backends' documented tolerance).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -151,19 +150,21 @@ def simulate_chunk(
     start: int,
     stop: int,
     backend: str = "batched",
+    *,
+    progress: bool = False,
 ) -> ReturnChunk:
-    """Run every episode of policies ``start … stop−1``."""
+    """Run every episode of policies ``start … stop−1`` (``progress``: a bar over obstacle hand-overs)."""
     if backend not in BACKENDS:
         raise ConfigError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
     indices = np.arange(start, stop)
     policies = sample_policies(network, prior, task.observation_size, task.action_size, settings.seed, indices)
     joint_angles, target = initial_states(task, settings.seed, indices, settings.episodes)
     if backend == "batched":
-        return _simulate_batched(task, policies, joint_angles, target)
+        return _simulate_batched(task, policies, joint_angles, target, progress)
     return _simulate_pybullet(task, policies, joint_angles, target)
 
 
-def _simulate_batched(task, policies: PolicyBatch, joint_angles, target) -> ReturnChunk:
+def _simulate_batched(task, policies: PolicyBatch, joint_angles, target, progress: bool = False) -> ReturnChunk:
     from taskcomplexity.tasks.batched import BatchedReaching
 
     n_pol, n_ep = joint_angles.shape[:2]
@@ -180,11 +181,11 @@ def _simulate_batched(task, policies: PolicyBatch, joint_angles, target) -> Retu
     success = env.success.numpy().reshape(n_pol, n_ep).copy()
     handoff = env.handoff.numpy().reshape(n_pol, n_ep)
     if handoff.any():
-        _finish_on_pybullet(task, policies, env, handoff, returns, steps, success)
+        _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress)
     return ReturnChunk(policies.indices.copy(), returns, steps, success, int(handoff.sum()))
 
 
-def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success) -> None:
+def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress: bool = False) -> None:
     """Continue handed-over episodes on the PyBullet reference, from the state where they stopped.
 
     """
@@ -209,7 +210,7 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success) -
 
     _init_reference(task)
     try:
-        bar = tqdm(jobs, desc="obstacle contacts on pybullet", unit="ep", disable=not _PROGRESS[0], leave=False)
+        bar = tqdm(jobs, desc="obstacle contacts on pybullet", unit="ep", disable=not progress, leave=False)
         outcomes = [_continue_episode(job) for job in bar]
     finally:
         _REFERENCE.pop("env").close()
@@ -220,7 +221,6 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success) -
 
 
 _REFERENCE = {}
-_PROGRESS = [False]
 
 
 def _init_reference(task) -> None:
@@ -302,22 +302,16 @@ def run_rwg(
     from tqdm.auto import tqdm
 
     total = sum(b - a for a, b in ranges) * settings.episodes
-    _PROGRESS[0] = progress
     bar = tqdm(total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", disable=not progress, smoothing=0.1)
     try:
         for key in ranges:
             if key not in completed:
-                completed[key] = simulate_chunk(task, network, prior, settings, *key, backend=backend)
+                completed[key] = simulate_chunk(
+                    task, network, prior, settings, *key, backend=backend, progress=progress
+                )
                 if on_chunk is not None:
                     on_chunk(key, completed[key])
             bar.update((key[1] - key[0]) * settings.episodes)
     finally:
         bar.close()
     return ReturnChunk.concatenate([completed[k] for k in ranges])
-
-
-
-
-def env_steps_per_second(chunk: ReturnChunk, seconds: float) -> float:
-    """Throughput of a run: environment steps simulated per wall-clock second."""
-    return float(chunk.steps.sum()) / max(seconds, 1e-12) if math.isfinite(seconds) else float("nan")

@@ -18,8 +18,6 @@ def canonical(value: Any) -> Any:
         return [canonical(v) for v in value]
     if hasattr(value, "item") and callable(value.item):
         return value.item()
-    if isinstance(value, float) and value.is_integer():
-        return value  # keep 1.0 and 1 distinct only through their JSON forms, which json handles
     return value
 
 
