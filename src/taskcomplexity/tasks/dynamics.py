@@ -13,9 +13,9 @@ semi-implicit Euler: q̈ = M(q)⁻¹ (τ − b⊙q̇ − D(q, q̇) − C(q, q̇)
   their joints, so that M is constant).
 - Bullet clamps every generalised velocity to ±100 (``m_maxCoordinateVelocity``).
 
-The inner loop is a fused, parallel numba kernel: at the paper's scale (2.5·10⁸ environment steps ×
-51 physics steps per task) element-wise tensor operations would spend their time moving memory.
-The kernel works in place on float64 arrays (NumPy views of the batched backend's torch tensors).
+The inner loop (:func:`integrate_block`) runs inside the batched backend's fused numba step kernel
+(:mod:`taskcomplexity.tasks.step_kernel`): at the paper's scale (2.5·10⁸ environment steps × 51
+physics steps per task) element-wise tensor operations would spend their time moving memory.
 """
 
 from __future__ import annotations
@@ -161,59 +161,46 @@ def _near_block(p, obstacle, q1, q2):
 BLOCK = 256  # environments advanced in lock-step, so the compiler can interleave (and vectorise) them
 
 
-@numba.njit(parallel=True, cache=True)
-def _advance(params, q, qd, torque, active, dt, substeps, obstacle, contact):
-    n_env = q.shape[0]
-    n_blocks = (n_env + BLOCK - 1) // BLOCK
-    two_links = params[0] == 2
-    const = two_links and params[9] == 0.0
+@numba.njit(cache=True)
+def inverse_mass_matrix(params):
+    """M⁻¹ of an arm whose forearm centre of mass is on the elbow, as (inv11, inv12, inv22)."""
     inv = np.zeros(3)
-    if const:
+    if params[0] == 2 and params[9] == 0.0:
         m1, c1, i1, l1, m2, i2 = params[3], params[4], params[5], params[7], params[8], params[10]
         a11, a12, a22 = i1 + m1 * c1 * c1 + i2 + m2 * l1 * l1, i2, i2
         det = a11 * a22 - a12 * a12
         inv[0], inv[1], inv[2] = a22 / det, -a12 / det, a11 / det
-    check = obstacle[0] > 0
-    for blk in numba.prange(n_blocks):
-        lo = blk * BLOCK
-        n = min(BLOCK, n_env - lo)
-        a1 = np.empty(n)
-        u = np.empty(n)
-        t1 = np.empty(n)
-        a2 = np.zeros(n)
-        v = np.zeros(n)
-        t2 = np.zeros(n)
-        touched = np.zeros(n, dtype=np.bool_)
-        for j in range(n):
-            a1[j], u[j], t1[j] = q[lo + j, 0], qd[lo + j, 0], torque[lo + j, 0]
-            if two_links:
-                a2[j], v[j], t2[j] = q[lo + j, 1], qd[lo + j, 1], torque[lo + j, 1]
-        for s in range(substeps):
-            on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
-            if const:
-                for j in range(n):
-                    a1[j], a2[j], u[j], v[j] = _two_link_step_const(
-                        params, inv, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
-                    )
-            elif two_links:
-                for j in range(n):
-                    a1[j], a2[j], u[j], v[j] = _two_link_step(
-                        params, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
-                    )
-            else:
-                for j in range(n):
-                    a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
-            if two_links and check:
-                for j in range(n):
-                    touched[j] |= _near_block(params, obstacle, a1[j], a2[j])
-        for j in range(n):
-            e = lo + j
-            if not active[e]:
-                continue
-            q[e, 0], qd[e, 0] = a1[j], u[j]
-            if two_links:
-                q[e, 1], qd[e, 1] = a2[j], v[j]
-                contact[e] = touched[j]
+    return inv
+
+
+@numba.njit(cache=True, inline="always")
+def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched):
+    """One environment step of n environments in lock-step, in place on length-n arrays.
+
+    ``a1, a2`` joint angles, ``u, v`` joint velocities, ``t1, t2`` torques of the first physics step
+    (``a2, v, t2`` unused by a 1-link arm). ``touched[j]`` is set when environment j's forearm enters
+    the block's contact zone (``zone[0] > 0``) after any physics step.
+    """
+    n = a1.shape[0]
+    two_links = params[0] == 2
+    const = two_links and params[9] == 0.0
+    check = two_links and zone[0] > 0
+    for s in range(substeps):
+        on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
+        if const:
+            for j in range(n):
+                a1[j], a2[j], u[j], v[j] = _two_link_step_const(
+                    params, inv, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
+                )
+        elif two_links:
+            for j in range(n):
+                a1[j], a2[j], u[j], v[j] = _two_link_step(params, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt)
+        else:
+            for j in range(n):
+                a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
+        if check:
+            for j in range(n):
+                touched[j] |= _near_block(params, zone, a1[j], a2[j])
 
 
 NO_OBSTACLE = np.zeros(6)
@@ -239,43 +226,3 @@ def contact_zone(task) -> np.ndarray:
 
 
 CONTACT_BREAKING_THRESHOLD = 0.02  # PyBullet's default, m
-
-
-def advance(
-    dynamics: np.ndarray,
-    joint_angles: np.ndarray,
-    joint_velocities: np.ndarray,
-    torque: np.ndarray,
-    active: np.ndarray,
-    time_step: float,
-    substeps: int,
-    obstacle: np.ndarray = NO_OBSTACLE,
-    contact: np.ndarray | None = None,
-) -> None:
-    """Advance every active environment by one environment step, in place.
-
-    Parameters
-    ----------
-    dynamics : ndarray (5·dof + 3,)
-        :meth:`ArmDynamics.vector`.
-    joint_angles, joint_velocities : ndarray (B, dof), float64, C-contiguous
-        Raw joint state (rad, rad/s), updated in place.
-    torque : ndarray (B, dof), float64
-        Joint torques for the first physics step, N·m.
-    active : ndarray (B,), bool
-        Environments to advance; the others are left untouched.
-    time_step : float
-        Physics time step, s.
-    substeps : int
-        Physics steps per environment step.
-    obstacle : ndarray (6,)
-        :func:`contact_zone` of the task (zeros: no obstacle).
-    contact : ndarray (B,), bool, optional
-        Set for every environment whose forearm entered the block's contact zone during the step:
-        PyBullet's contact solver may have acted there, which this contact-free model does not.
-    """
-    if contact is None:
-        contact = np.zeros(joint_angles.shape[0], dtype=np.bool_)
-    _advance(
-        dynamics, joint_angles, joint_velocities, torque, active, float(time_step), int(substeps), obstacle, contact
-    )
