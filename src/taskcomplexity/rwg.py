@@ -21,6 +21,7 @@ from taskcomplexity.tasks import mechanics
 from taskcomplexity.tasks.spec import TaskSpec
 
 BACKENDS = ("batched", "pybullet")
+CONTACTS = ("pybullet", "model")
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,11 @@ class RWGSettings:
         Working-memory budget of one chunk on the batched backend, MB.
     shard, shards : int
         This job simulates policy range ``shard`` of ``shards`` equal ranges.
+    contacts : {'pybullet', 'model'}
+        The obstacle task's forearm–block contacts on the batched backend: ``pybullet`` finishes each
+        episode that reaches the block on the PyBullet reference (exact, PyBullet's speed);
+        ``model`` integrates them with the batched contact model (:mod:`taskcomplexity.tasks.contact`:
+        PyBullet's distribution of outcomes, at the batched backend's speed).
     """
 
     policies: int = 1000
@@ -48,6 +54,7 @@ class RWGSettings:
     chunk_memory_mb: int = 512
     shard: int = 0
     shards: int = 1
+    contacts: str = "pybullet"
 
     def validate(self) -> None:
         if self.policies < 2:
@@ -60,6 +67,8 @@ class RWGSettings:
             raise ConfigError(f"rwg.chunk_policies must be >= 0 (0 = automatic), got {self.chunk_policies}")
         if self.chunk_memory_mb < 1:
             raise ConfigError(f"rwg.chunk_memory_mb must be >= 1, got {self.chunk_memory_mb}")
+        if self.contacts not in CONTACTS:
+            raise ConfigError(f"rwg.contacts must be one of {list(CONTACTS)}, got {self.contacts!r}")
         if not 1 <= self.shards <= self.policies:
             raise ConfigError(f"rwg.shards must be in [1, rwg.policies={self.policies}], got {self.shards}")
         if not 0 <= self.shard < self.shards:
@@ -89,7 +98,10 @@ class ReturnChunk:
     success : ndarray (P, M) bool
         Whether the episode reached d < threshold.
     handoffs : int
-        Episodes finished on the PyBullet reference after an obstacle contact (batched backend).
+        Episodes finished on the PyBullet reference after reaching the block (batched backend,
+        ``contacts='pybullet'``).
+    contacts : int
+        Episodes in which the modelled block acted on the arm (batched backend, ``contacts='model'``).
     """
 
     policy: np.ndarray
@@ -97,6 +109,7 @@ class ReturnChunk:
     steps: np.ndarray
     success: np.ndarray
     handoffs: int = 0
+    contacts: int = 0
 
     @staticmethod
     def concatenate(chunks: list[ReturnChunk]) -> ReturnChunk:
@@ -107,6 +120,7 @@ class ReturnChunk:
             steps=np.concatenate([c.steps for c in chunks]),
             success=np.concatenate([c.success for c in chunks]),
             handoffs=sum(c.handoffs for c in chunks),
+            contacts=sum(c.contacts for c in chunks),
         )
 
 
@@ -160,15 +174,17 @@ def simulate_chunk(
     policies = sample_policies(network, prior, task.observation_size, task.action_size, settings.seed, indices)
     joint_angles, target = initial_states(task, settings.seed, indices, settings.episodes)
     if backend == "batched":
-        return _simulate_batched(task, policies, joint_angles, target, progress)
+        return _simulate_batched(task, policies, joint_angles, target, settings.contacts, progress)
     return _simulate_pybullet(task, policies, joint_angles, target)
 
 
-def _simulate_batched(task, policies: PolicyBatch, joint_angles, target, progress: bool = False) -> ReturnChunk:
+def _simulate_batched(
+    task, policies: PolicyBatch, joint_angles, target, contacts: str = "pybullet", progress: bool = False
+) -> ReturnChunk:
     from taskcomplexity.tasks.batched import BatchedReaching
 
     n_pol, n_ep = joint_angles.shape[:2]
-    env = BatchedReaching(task, n_pol * n_ep)
+    env = BatchedReaching(task, n_pol * n_ep, contacts)
     obs = env.reset(torch.from_numpy(joint_angles.reshape(n_pol * n_ep, -1)), torch.from_numpy(target.reshape(-1, 2)))
     with torch.no_grad():
         for _ in range(task.max_steps):
@@ -182,7 +198,9 @@ def _simulate_batched(task, policies: PolicyBatch, joint_angles, target, progres
     handoff = env.handoff.numpy().reshape(n_pol, n_ep)
     if handoff.any():
         _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress)
-    return ReturnChunk(policies.indices.copy(), returns, steps, success, int(handoff.sum()))
+    return ReturnChunk(
+        policies.indices.copy(), returns, steps, success, int(handoff.sum()), int(env.contact.numpy().sum())
+    )
 
 
 def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress: bool = False) -> None:

@@ -106,12 +106,21 @@ def test_rwg_returns_agree_across_backends(arm, reward):
         assert different.sum() <= fast.handoffs
 
 
-@pytest.mark.parametrize(("arm", "reward"), [("two_link", "sparse"), ("one_link_1m65", "dense"), ("two_link_obstacle", "dense")])
-def test_batched_results_do_not_depend_on_the_chunk_size(arm, reward):
+@pytest.mark.parametrize(
+    ("arm", "reward", "contacts"),
+    [
+        ("two_link", "sparse", "pybullet"),
+        ("one_link_1m65", "dense", "pybullet"),
+        ("two_link_obstacle", "dense", "pybullet"),
+        ("two_link_obstacle", "dense", "model"),
+    ],
+)
+def test_batched_results_do_not_depend_on_the_chunk_size(arm, reward, contacts):
     task = make_task(arm, reward)
     network, prior = NetworkSpec(hidden=(64, 64)), PriorSpec(kind="uniform")
-    whole = run_rwg(task, network, prior, RWGSettings(policies=12, episodes=7, seed=2, chunk_policies=12), "batched")
-    pieces = run_rwg(task, network, prior, RWGSettings(policies=12, episodes=7, seed=2, chunk_policies=5), "batched")
+    common = dict(policies=12, episodes=7, seed=2, contacts=contacts)
+    whole = run_rwg(task, network, prior, RWGSettings(**common, chunk_policies=12), "batched")
+    pieces = run_rwg(task, network, prior, RWGSettings(**common, chunk_policies=5), "batched")
     np.testing.assert_array_equal(whole.returns, pieces.returns)
     np.testing.assert_array_equal(whole.steps, pieces.steps)
 

@@ -25,12 +25,15 @@ def _random_state(task, rng):
     return q0, qd0, target, action
 
 
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
-def test_observation_reward_and_done_are_those_of_mechanics(arm, reward):
+CASES = [(arm, reward, "pybullet") for arm, reward in STUDY_TASKS] + [("two_link_obstacle", "dense", "model")]
+
+
+@pytest.mark.parametrize(("arm", "reward", "contacts"), CASES)
+def test_observation_reward_and_done_are_those_of_mechanics(arm, reward, contacts):
     task = make_task(arm, reward)
     rng = np.random.default_rng(7)
     q0, qd0, target, action = _random_state(task, rng)
-    env = BatchedReaching(task, B)
+    env = BatchedReaching(task, B, contacts)
     env.reset(torch.from_numpy(q0), torch.from_numpy(target))
     env.joint_velocities.copy_(torch.from_numpy(qd0))
     env.active[-10:] = False  # already done: must not move or earn
@@ -56,7 +59,10 @@ def test_observation_reward_and_done_are_those_of_mechanics(arm, reward):
     np.testing.assert_array_equal(q1[~active], q0[~active])
     assert (reward_.numpy()[~moved] == 0).all() and not done.numpy()[~moved].any()
     assert moved.sum() > B // 2
-    if task.arm.obstacle is not None:
+    if contacts == "model":
+        assert not env.handoff.numpy().any() and env.contact.numpy()[: B // 3].mean() > 0.3
+        assert collision[moved].any() and not collision[moved].all()  # both branches exercised
+    elif task.arm.obstacle is not None:
         handoff = env.handoff.numpy()
         assert handoff[: B // 3].mean() > 0.3  # forearms near the block were handed over,
         np.testing.assert_array_equal(q1[handoff], q0[handoff])  # from the state before the step

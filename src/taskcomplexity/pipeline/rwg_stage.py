@@ -44,8 +44,12 @@ class RWGRequest:
     backend: str = "batched"
 
     def identity(self) -> dict:
-        """The config subset the key hashes: sharding and chunking do not change the returns."""
-        return {
+        """The config subset the key hashes: sharding and chunking do not change the returns.
+
+        The contact handling counts only where it can change them (the obstacle task on the batched
+        backend), so the other tasks' keys do not depend on it.
+        """
+        identity = {
             "task": canonical(self.task),
             "network": canonical(self.network),
             "prior": canonical(self.prior),
@@ -54,6 +58,14 @@ class RWGRequest:
             "seed": self.settings.seed,
             "backend": self.backend,
         }
+        if self.models_contacts:
+            identity["contacts"] = self.settings.contacts
+        return identity
+
+    @property
+    def models_contacts(self) -> bool:
+        """Whether the obstacle's contacts come from the batched contact model rather than PyBullet."""
+        return self.task.arm.obstacle is not None and self.backend == "batched" and self.settings.contacts == "model"
 
     @property
     def key(self) -> str:
@@ -64,7 +76,9 @@ class RWGRequest:
         s = self.settings
         hidden = "x".join(map(str, self.network.hidden))
         bias = "+b" if self.network.bias else ""
-        return f"{self.task.task_id} mlp{hidden}{bias} {self.prior.kind} N={s.policies} M={s.episodes} seed={s.seed}"
+        contacts = " contact-model" if self.models_contacts else ""
+        return (f"{self.task.task_id} mlp{hidden}{bias} {self.prior.kind} N={s.policies} M={s.episodes} "
+                f"seed={s.seed}{contacts}")
 
 
 def _chunk_file(scratch: Path, start: int, stop: int) -> Path:
@@ -74,14 +88,15 @@ def _chunk_file(scratch: Path, start: int, stop: int) -> Path:
 def _save_chunk(path: Path, chunk: ReturnChunk) -> None:
     tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
     np.savez(tmp, policy=chunk.policy, returns=chunk.returns, steps=chunk.steps, success=chunk.success,
-             handoffs=np.int64(chunk.handoffs))
+             handoffs=np.int64(chunk.handoffs), contacts=np.int64(chunk.contacts))
     tmp.replace(path)
 
 
 def _load_chunk(path: Path) -> ReturnChunk | None:
     try:
         with np.load(path) as z:
-            return ReturnChunk(z["policy"], z["returns"], z["steps"], z["success"], int(z["handoffs"]))
+            return ReturnChunk(z["policy"], z["returns"], z["steps"], z["success"], int(z["handoffs"]),
+                               int(z["contacts"]))
     except Exception as err:  # noqa: BLE001 - a damaged chunk is recomputed
         log.warning("discarding unreadable chunk %s (%s)", path, err)
         path.unlink(missing_ok=True)
@@ -216,6 +231,8 @@ def run_rwg_stage(
             "backend": request.backend,
             "env_steps": int(merged.steps.sum()),
             "handoffs": merged.handoffs,
+            "contacts": "model" if request.models_contacts else "pybullet",
+            "modelled_contact_episodes": merged.contacts,
             "compute_seconds": round(time.time() - started, 3),
         }
 

@@ -398,7 +398,9 @@ def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -
                      f"{_joined(r.settings.episodes for r in requests)} episodes per task, "
                      f"{_joined(r.task.max_steps for r in requests)} steps per episode, "
                      f"seed {_joined(r.settings.seed for r in requests)}, "
-                     f"backend {_joined(r.backend for r in requests)}"),
+                     f"backend {_joined(r.backend for r in requests)}"
+                     + ("; the obstacle's contacts from the batched contact model"
+                        if any(r.models_contacts for r in requests) else "")),
         ("PIC", f"histogram with B = {int(metrics_config.get('bins', 0)):,} equal-width bins, nats"),
         ("POIC", "deterministic temperature search over λ ∈ "
                  f"[{', '.join(f'{x:g}' for x in metrics_config.get('temperature_range', []))}]"),

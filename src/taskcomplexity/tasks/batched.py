@@ -5,10 +5,14 @@ same URDF files PyBullet loads, then observation, reward and bookkeeping) is the
 of :mod:`taskcomplexity.tasks.step_kernel`, held to :mod:`taskcomplexity.tasks.mechanics` by tests.
 Environments that are done stop moving and stop accumulating reward while the others continue.
 
-For the obstacle task the model has no contact forces: an environment whose forearm enters the
-block's contact zone during a step is not advanced by the model; PyBullet's contact
-solver may have acted on it there, so it is rolled back to the start of that step and marked in
-:attr:`BatchedReaching.handoff`; the RWG runner finishes such episodes on the PyBullet reference.
+The obstacle task's forearm–block contacts are handled in one of two ways (``contacts``):
+
+- ``"pybullet"`` (exact): an environment whose forearm enters the block's contact zone during a step
+  is rolled back to the start of that step and marked in :attr:`BatchedReaching.handoff`; the RWG
+  runner finishes such episodes on the PyBullet reference.
+- ``"model"`` (fast): contacts act as :mod:`taskcomplexity.tasks.contact` models Bullet's solver;
+  :attr:`BatchedReaching.contact` marks the episodes the block acted on. PyBullet's contact dynamics
+  are chaotic, so these episodes agree with PyBullet in distribution, not one by one.
 """
 
 from __future__ import annotations
@@ -29,14 +33,16 @@ class BatchedReaching:
     task : TaskSpec
     size : int
         Number of environments B.
+    contacts : {"pybullet", "model"}
+        How the obstacle task's contacts are handled (see the module docstring).
     """
 
-    def __init__(self, task: TaskSpec, size: int):
+    def __init__(self, task: TaskSpec, size: int, contacts: str = "pybullet"):
         self.task = task.validate()
         self.size = size
         dof = task.arm.dof
         self._dynamics = ArmDynamics(read_arm_urdf(urdf_path(task.arm))).vector()
-        self._zone = contact_zone(task)
+        self._zone = contact_zone(task, contacts)
         self._task = step_kernel.task_vector(task)
         self.joint_angles = torch.zeros(size, dof, dtype=torch.float64)
         self.joint_velocities = torch.zeros(size, dof, dtype=torch.float64)
@@ -46,6 +52,7 @@ class BatchedReaching:
         self.steps = torch.zeros(size, dtype=torch.int64)
         self.success = torch.zeros(size, dtype=torch.bool)
         self.handoff = torch.zeros(size, dtype=torch.bool)
+        self.contact = torch.zeros(size, dtype=torch.bool)
         self.observation = torch.zeros(size, task.observation_size, dtype=torch.float64)
         self.reward = torch.zeros(size, dtype=torch.float64)
         self.done = torch.zeros(size, dtype=torch.bool)
@@ -53,7 +60,7 @@ class BatchedReaching:
             name: getattr(self, name).numpy()
             for name in (
                 "joint_angles", "joint_velocities", "target", "active", "returns", "steps", "success", "handoff",
-                "observation", "reward", "done",
+                "contact", "observation", "reward", "done",
             )
         }
 
@@ -78,6 +85,7 @@ class BatchedReaching:
         self.steps.zero_()
         self.success.fill_(False)
         self.handoff.fill_(False)
+        self.contact.fill_(False)
         observation, *_ = mechanics.observe(self.task, self.joint_angles, self.joint_velocities, self.target)
         self.observation.copy_(observation)
         return self.observation

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from taskcomplexity.tasks import contact
 from taskcomplexity.tasks.urdf import LinkDynamics
 
 # numba's own thread pool does not spin between kernels (torch's OpenMP pool runs in between).
@@ -174,20 +175,52 @@ def inverse_mass_matrix(params):
 
 
 @numba.njit(cache=True, inline="always")
+def _inverse_at(params, const_inv, q2):
+    """M⁻¹ at elbow angle q2 as (inv11, inv12, inv22) (``const_inv`` when M is constant)."""
+    if params[9] == 0.0:
+        return const_inv
+    m = np.empty((2, 2))
+    _mass_matrix(params, q2, m)
+    det = m[0, 0] * m[1, 1] - m[0, 1] * m[0, 1]
+    return np.array([m[1, 1] / det, -m[0, 1] / det, m[0, 0] / det])
+
+
+@numba.njit(cache=True, inline="always")
 def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched):
     """One environment step of n environments in lock-step, in place on length-n arrays.
 
     ``a1, a2`` joint angles, ``u, v`` joint velocities, ``t1, t2`` torques of the first physics step
-    (``a2, v, t2`` unused by a 1-link arm). ``touched[j]`` is set when environment j's forearm enters
-    the block's contact zone (``zone[0] > 0``) after any physics step.
+    (``a2, v, t2`` unused by a 1-link arm). ``zone`` (:func:`contact_zone`) selects what happens near
+    the block: mode 0, no block; mode 1, ``touched[j]`` is set when environment j's forearm enters the
+    block's contact zone (for a hand-over); mode 2, contacts act (:mod:`taskcomplexity.tasks.contact`)
+    and ``touched[j]`` is set when one did.
     """
     n = a1.shape[0]
     two_links = params[0] == 2
     const = two_links and params[9] == 0.0
-    check = two_links and zone[0] > 0
+    mode = int(zone[0]) if two_links else 0
+    points = np.empty((2, 3))
     for s in range(substeps):
         on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
-        if const:
+        if mode == 2:
+            for j in range(n):
+                b1, b2 = a1[j], a2[j]
+                if const:
+                    a1[j], a2[j], u[j], v[j] = _two_link_step_const(
+                        params, inv, b1, b2, u[j], v[j], on * t1[j], on * t2[j], dt
+                    )
+                else:
+                    a1[j], a2[j], u[j], v[j] = _two_link_step(params, b1, b2, u[j], v[j], on * t1[j], on * t2[j], dt)
+                if not _near_block(params, zone, b1, b2):
+                    continue
+                count, nx, ny = contact.detect(zone, params[7], b1, b2, points)
+                if count == 0:
+                    continue
+                touched[j] = True
+                u[j], v[j] = contact.solve(zone, params[7], b1, _inverse_at(params, inv, b2), u[j], v[j], points,
+                                           count, nx, ny, dt)
+                a1[j], a2[j] = b1 + dt * u[j], b2 + dt * v[j]
+        elif const:
             for j in range(n):
                 a1[j], a2[j], u[j], v[j] = _two_link_step_const(
                     params, inv, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
@@ -198,31 +231,52 @@ def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touch
         else:
             for j in range(n):
                 a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
-        if check:
+        if mode == 1:
             for j in range(n):
                 touched[j] |= _near_block(params, zone, a1[j], a2[j])
 
 
-NO_OBSTACLE = np.zeros(6)
+CONTACT_BREAKING_THRESHOLD = 0.02  # PyBullet's default, m
+CONTACT_MODES = {"pybullet": 1.0, "model": 2.0}
+NO_OBSTACLE = np.zeros(contact.RESIDUAL + 1)
 
 
-def contact_zone(task) -> np.ndarray:
-    """Kernel parameters of the block's contact zone: ``[enabled, ox, oy, t_min, t_max, radius]``.
+def contact_zone(task, contacts: str = "pybullet") -> np.ndarray:
+    """Kernel parameters of the forearm–block contact (layout: :mod:`taskcomplexity.tasks.contact`).
 
-    The forearm box spans t ∈ [−overhang, length] along its axis from the elbow; the zone radius
-    bounds the box's half-diagonal section plus the block's half-diagonal plus PyBullet's contact
-    breaking threshold (0.02 m), so every physical contact of the two boxes is inside it.
+    ``contacts`` is ``"pybullet"`` (mode 1: flag the environments whose forearm enters the contact
+    zone, for a hand-over to PyBullet) or ``"model"`` (mode 2: contacts act, as
+    :mod:`~taskcomplexity.tasks.contact` models them). The forearm box spans x ∈ [x₀, x₁] = [−overhang,
+    length] along its axis from the elbow; the zone radius bounds the box's half-diagonal section
+    plus the block's half-diagonal plus PyBullet's contact breaking threshold (0.02 m), so every
+    physical contact of the two boxes is inside it.
     """
-    from taskcomplexity.tasks.mechanics import BLOCK_FOOTPRINT
+    from taskcomplexity.tasks.mechanics import BLOCK_FOOTPRINT, BLOCK_LENGTH
+    from taskcomplexity.tasks.pybullet_env import ARM_BASE_POSITION
     from taskcomplexity.tasks.spec import LINK_OVERHANG, LINK_WIDTH
 
     obstacle = task.arm.obstacle
     if obstacle is None:
         return NO_OBSTACLE
-    ox, oy = obstacle.position
-    block_half_diagonal = obstacle.scale * BLOCK_FOOTPRINT / 2 * np.sqrt(2)
-    radius = LINK_WIDTH / 2 * np.sqrt(2) + block_half_diagonal + CONTACT_BREAKING_THRESHOLD + 0.005
-    return np.array([1.0, ox, oy, -LINK_OVERHANG, task.arm.links[1].length, radius])
-
-
-CONTACT_BREAKING_THRESHOLD = 0.02  # PyBullet's default, m
+    if contacts not in CONTACT_MODES:
+        raise ValueError(f"contacts must be one of {list(CONTACT_MODES)}, got {contacts!r}")
+    zone = np.zeros_like(NO_OBSTACLE)
+    half_side = obstacle.scale * BLOCK_FOOTPRINT / 2
+    zone[contact.MODE] = CONTACT_MODES[contacts]
+    zone[contact.OX], zone[contact.OY] = obstacle.position
+    zone[contact.X0], zone[contact.X1] = -LINK_OVERHANG, task.arm.links[1].length
+    radius = LINK_WIDTH / 2 * np.sqrt(2) + half_side * np.sqrt(2) + CONTACT_BREAKING_THRESHOLD + 0.005
+    zone[contact.ZONE_RADIUS] = radius
+    zone[contact.HALF_SIDE] = half_side
+    zone[contact.HALF_WIDTH] = LINK_WIDTH / 2
+    base_z = ARM_BASE_POSITION[2]
+    block_half_height = obstacle.scale * BLOCK_LENGTH / 2
+    zone[contact.Z_OVERLAP] = min(base_z + LINK_WIDTH / 2, obstacle.height + block_half_height) - max(
+        base_z - LINK_WIDTH / 2, obstacle.height - block_half_height
+    )
+    zone[contact.ERP] = contact.CONTACT_ERP
+    zone[contact.SLOP] = contact.LINEAR_SLOP
+    zone[contact.MU] = contact.LINK_FRICTION * contact.BLOCK_FRICTION
+    zone[contact.ITERATIONS] = contact.SOLVER_ITERATIONS
+    zone[contact.RESIDUAL] = contact.RESIDUAL_THRESHOLD
+    return zone

@@ -241,6 +241,7 @@ def reward_terms(task: TaskSpec, action, distance, upper_clearance=None, forearm
 # pybullet_data block.urdf is a 0.10 × 0.018 × 0.018 box; stood upright (rotated π/2 about y) its
 # footprint in the arm's plane is 0.018 × 0.018 before scaling.
 BLOCK_FOOTPRINT = 0.018
+BLOCK_LENGTH = 0.10  # its long side, vertical once stood upright
 # PyBullet's URDF importer gives every collision shape a 0.001 m margin: a box's closest distance is
 # measured between cores shrunk by the margin, minus both margins (boxes with rounded edges).
 COLLISION_MARGIN = 0.001

@@ -129,11 +129,12 @@ def _observe(p, q1, q2, qd1, radius, angle, obs):
 
 
 @numba.njit(parallel=True, cache=True)
-def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, success, handoff, obs, reward, done, dt,
-          substeps):
+def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, success, handoff, contact, obs, reward,
+          done, dt, substeps):
     n_env = q.shape[0]
     two_links = p[DOF] == 2
     obstacle = p[OBSTACLE] > 0
+    handover = zone[0] == 1.0
     inv = inverse_mass_matrix(dynamics)
     for blk in numba.prange((n_env + BLOCK - 1) // BLOCK):
         lo = blk * BLOCK
@@ -154,8 +155,10 @@ def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, succ
         integrate_block(dynamics, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
         for j in range(n):
             e = lo + j
-            live = active[e] and not touched[j]
+            live = active[e] and not (handover and touched[j])
             if live:
+                if touched[j]:
+                    contact[e] = True
                 q[e, 0], qd[e, 0] = a1[j], u[j]
                 if two_links:
                     q[e, 1], qd[e, 1] = a2[j], v[j]
@@ -213,11 +216,14 @@ def step(
         :meth:`taskcomplexity.tasks.dynamics.ArmDynamics.vector` of the arm.
     task : ndarray
         :func:`task_vector` of the task.
-    zone : ndarray (6,)
-        :func:`taskcomplexity.tasks.dynamics.contact_zone` of the task.
+    zone : ndarray
+        :func:`taskcomplexity.tasks.dynamics.contact_zone` of the task: with hand-overs, an environment
+        whose forearm enters the block's contact zone keeps its state from before the step, is marked
+        in ``handoff`` and made inactive; with the contact model, ``contact`` marks the environments
+        the block acted on.
     state : dict of ndarray
         ``joint_angles``, ``joint_velocities`` (B, dof) float64; ``target`` (B, 2); ``active``,
-        ``success``, ``handoff``, ``done`` (B,) bool; ``returns``, ``reward`` (B,) float64;
+        ``success``, ``handoff``, ``contact``, ``done`` (B,) bool; ``returns``, ``reward`` (B,) float64;
         ``steps`` (B,) int64; ``observation`` (B, obs_size) float64. Updated in place: ``reward``
         and ``done`` are this step's (0 and False for environments that were not active).
     action : ndarray (B, dof), float64
@@ -225,6 +231,6 @@ def step(
     """
     _step(
         dynamics, task, zone, state["joint_angles"], state["joint_velocities"], state["target"], action,
-        state["active"], state["returns"], state["steps"], state["success"], state["handoff"],
+        state["active"], state["returns"], state["steps"], state["success"], state["handoff"], state["contact"],
         state["observation"], state["reward"], state["done"], float(time_step), int(substeps),
     )

@@ -1,0 +1,202 @@
+"""The forearm–block contact of the obstacle task, modelled the way Bullet's multibody solver does it.
+
+PyBullet's response to the forearm striking the block is chaotic (perturbing the joint angles by
+1e-12 rad changes its own returns), so no second implementation follows it episode by episode. This
+model reproduces the mechanism, and with it the distribution of outcomes (tested against PyBullet in
+``tests/tasks/test_contact.py``). Per physics step, from joint angles q and velocities v:
+
+1. **Detection at the step's starting pose** (Bullet's box–box test, in the arm's plane): the
+   forearm box (centre e + ½(x₀ + x₁)·u, half extents ½(x₁ − x₀) × ½w, u = (cos φ, sin φ), φ = q₁ + q₂,
+   e the elbow) against the block's square (half side b, centre o). Separating axes u, u⊥, x̂, ŷ: no
+   overlap on any of them, no contact (Bullet creates no contact at a positive distance). The axis
+   of least overlap gives the normal n (from the block to the arm) unless the vertical overlap of the
+   two boxes is smaller (a vertical normal does not act on revolute-z joints). The incident face of
+   the other box, clipped to the reference face, gives ≤ 2 points p with penetration depths.
+2. **Free velocity** v′ = v + dt·M⁻¹(τ − damping) (:mod:`taskcomplexity.tasks.dynamics`).
+3. **Contact solve on v′**, projected Gauss–Seidel as Bullet's sequential-impulse solver: per point a
+   normal row J_n = [n·p⊥, n·(p − e)⊥] (r⊥ = (−r_y, r_x)) with λ_n ≥ 0 and target velocity
+   −erp·δ/dt for penetration δ = d + slop ≤ 0 (−δ/dt for δ > 0), restitution 0; then a friction row
+   along t = n⊥ with |λ_t| ≤ μ·λ_n (μ = product of the two bodies' lateral frictions). Each impulse
+   changes v by M⁻¹Jᵀλ. Sweeps stop after ``iterations`` or when the squared velocity residual of a
+   sweep falls under Bullet's threshold.
+4. q ← q + dt·v″.
+
+Parameters are PyBullet's in this world: ERP 0.08, linear slop 1e-5, 50 solver iterations, residual
+threshold 1e-7, lateral frictions 0.5 (link) × 1.0 (block).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+CONTACT_ERP = 0.08  # solverInfo.m_erp2 as PyBullet sets it
+LINEAR_SLOP = 1e-5  # solverInfo.m_linearSlop as PyBullet sets it, m
+SOLVER_ITERATIONS = 50  # PyBullet's numSolverIterations
+RESIDUAL_THRESHOLD = 1e-7  # PyBullet's solverResidualThreshold (squared velocity residual of a sweep)
+LINK_FRICTION = 0.5  # PyBullet's default lateral friction of a URDF link without <contact>
+BLOCK_FRICTION = 1.0  # pybullet_data block.urdf's lateral friction
+
+# layout of the contact vector (see taskcomplexity.tasks.dynamics.contact_zone)
+MODE, OX, OY, X0, X1, ZONE_RADIUS, HALF_SIDE, HALF_WIDTH, Z_OVERLAP, ERP, SLOP, MU, ITERATIONS, RESIDUAL = range(14)
+
+
+@numba.njit(cache=True, inline="always")
+def _clip(ax, ay, bx, by, cx, cy, tx, ty, half, out, count):
+    """Clip segment a–b to the slab |(p − c)·t| ≤ half; append its ends to ``out`` (x, y rows)."""
+    sa = (ax - cx) * tx + (ay - cy) * ty
+    sb = (bx - cx) * tx + (by - cy) * ty
+    if sa > sb:
+        ax, ay, bx, by, sa, sb = bx, by, ax, ay, sb, sa
+    if sb < -half or sa > half:
+        return count
+    for s in (max(sa, -half), min(sb, half)):
+        f = 0.0 if sb == sa else (s - sa) / (sb - sa)
+        out[count, 0] = ax + f * (bx - ax)
+        out[count, 1] = ay + f * (by - ay)
+        count += 1
+    return count
+
+
+@numba.njit(cache=True)
+def detect(zone, l1, q1, q2, points):
+    """Contact points of the forearm box and the block at joint angles (q1, q2).
+
+    Parameters
+    ----------
+    zone : ndarray
+        The contact vector (:func:`taskcomplexity.tasks.dynamics.contact_zone`).
+    l1 : float
+        Upper-arm length (elbow distance from the shoulder), m.
+    points : ndarray (2, 3), out
+        Rows (x, y, d): contact point on the forearm (m) and signed distance d < 0 (−penetration, m),
+        deepest first.
+
+    Returns
+    -------
+    count : int
+        Number of points (0, 1 or 2).
+    nx, ny : float
+        Unit contact normal, from the block towards the arm.
+    """
+    ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
+    ux, uy = np.cos(q1 + q2), np.sin(q1 + q2)
+    wx, wy = -uy, ux
+    hx = (zone[X1] - zone[X0]) / 2
+    hy = zone[HALF_WIDTH]
+    cx, cy = ex + ux * (zone[X0] + hx), ey + uy * (zone[X0] + hx)
+    ox, oy, b = zone[OX], zone[OY], zone[HALF_SIDE]
+    dx, dy = cx - ox, cy - oy
+    best, kx, ky, arm_face = np.inf, 0.0, 0.0, False
+    for axis in range(4):
+        if axis == 0:
+            ax, ay = ux, uy
+        elif axis == 1:
+            ax, ay = wx, wy
+        elif axis == 2:
+            ax, ay = 1.0, 0.0
+        else:
+            ax, ay = 0.0, 1.0
+        ra = hx * abs(ux * ax + uy * ay) + hy * abs(wx * ax + wy * ay)
+        overlap = ra + b * (abs(ax) + abs(ay)) - abs(dx * ax + dy * ay)
+        if overlap <= 0.0:
+            return 0, 0.0, 0.0  # separated
+        if overlap < best:
+            best, kx, ky, arm_face = overlap, ax, ay, axis < 2
+    if best > zone[Z_OVERLAP]:
+        return 0, 0.0, 0.0  # the vertical axis overlaps least: a vertical normal, no joint effect
+    if dx * kx + dy * ky <= 0.0:
+        kx, ky = -kx, -ky
+    nx, ny = kx, ky
+    tx, ty = -ny, nx
+    ends = np.empty((2, 2))
+    count = 0
+    if arm_face:
+        # reference: the forearm's face towards the block; incident: the block's face towards the arm
+        ra_n = hx * abs(ux * nx + uy * ny) + hy * abs(wx * nx + wy * ny)
+        ra_t = hx * abs(ux * tx + uy * ty) + hy * abs(wx * tx + wy * ty)
+        if abs(nx) >= abs(ny):
+            mx, my = (1.0 if nx > 0 else -1.0), 0.0
+        else:
+            mx, my = 0.0, (1.0 if ny > 0 else -1.0)
+        px, py = ox + b * mx, oy + b * my
+        n_ends = _clip(px - b * my, py + b * mx, px + b * my, py - b * mx, cx, cy, tx, ty, ra_t, ends, 0)
+        for i in range(n_ends):
+            pen = (ends[i, 0] - cx) * nx + (ends[i, 1] - cy) * ny + ra_n
+            if pen > 0.0:
+                points[count, 0] = ends[i, 0] - nx * pen
+                points[count, 1] = ends[i, 1] - ny * pen
+                points[count, 2] = -pen
+                count += 1
+    else:
+        # reference: the block's face towards the arm; incident: the forearm face most against n
+        best_dot = np.inf
+        mx = my = hm = sx = sy = hs = 0.0
+        for face in range(4):
+            if face < 2:
+                fx, fy, fh, gx, gy, gh = ux, uy, hx, wx, wy, hy
+            else:
+                fx, fy, fh, gx, gy, gh = wx, wy, hy, ux, uy, hx
+            if face % 2 == 1:
+                fx, fy = -fx, -fy
+            dot = fx * nx + fy * ny
+            if dot < best_dot:
+                best_dot, mx, my, hm, sx, sy, hs = dot, fx, fy, fh, gx, gy, gh
+        fx, fy = cx + hm * mx, cy + hm * my
+        n_ends = _clip(fx + hs * sx, fy + hs * sy, fx - hs * sx, fy - hs * sy, ox, oy, tx, ty, b, ends, 0)
+        for i in range(n_ends):
+            pen = b - ((ends[i, 0] - ox) * nx + (ends[i, 1] - oy) * ny)
+            if pen > 0.0:
+                points[count, 0], points[count, 1], points[count, 2] = ends[i, 0], ends[i, 1], -pen
+                count += 1
+    if count == 2 and points[1, 2] < points[0, 2]:
+        for c in range(3):
+            points[0, c], points[1, c] = points[1, c], points[0, c]
+    return count, nx, ny
+
+
+@numba.njit(cache=True)
+def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt):
+    """Joint velocities after the contact impulses (step 3 of the module docstring).
+
+    ``inv`` is M⁻¹ at this pose as (inv11, inv12, inv22); (u, v) the free joint velocities v′.
+    Returns (u″, v″).
+    """
+    ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
+    tx, ty = -ny, nx
+    rows = np.zeros((2 * count, 6))  # j1, j2, M⁻¹Jᵀ (2), 1/(J M⁻¹ Jᵀ), bias
+    for i in range(count):
+        px, py = points[i, 0], points[i, 1]
+        for r, (kx, ky) in enumerate(((nx, ny), (tx, ty))):
+            row = rows[2 * i + r]
+            row[0] = -kx * py + ky * px  # k · p⊥
+            row[1] = -kx * (py - ey) + ky * (px - ex)  # k · (p − e)⊥
+            row[2] = inv[0] * row[0] + inv[1] * row[1]
+            row[3] = inv[1] * row[0] + inv[2] * row[1]
+            row[4] = 1.0 / (row[0] * row[2] + row[1] * row[3])
+        depth = points[i, 2] + zone[SLOP]
+        rows[2 * i, 5] = -depth / dt if depth > 0.0 else -zone[ERP] * depth / dt
+    impulse = np.zeros(2 * count)
+    du = dv = 0.0
+    for _ in range(int(zone[ITERATIONS])):
+        residual = 0.0
+        for friction in range(2):
+            for i in range(count):
+                k = 2 * i + friction
+                row = rows[k]
+                if friction:
+                    limit = zone[MU] * impulse[2 * i]
+                    if limit <= 0.0:
+                        continue
+                    new = impulse[k] - (row[0] * (u + du) + row[1] * (v + dv)) * row[4]
+                    new = min(max(new, -limit), limit)
+                else:
+                    new = max(0.0, impulse[k] + (row[5] - (row[0] * (u + du) + row[1] * (v + dv))) * row[4])
+                change = new - impulse[k]
+                impulse[k] = new
+                du += row[2] * change
+                dv += row[3] * change
+                residual += (change / row[4]) ** 2
+        if residual <= zone[RESIDUAL]:
+            break
+    return u + du, v + dv

@@ -1,0 +1,65 @@
+"""The batched contact model of the obstacle task against PyBullet (tasks/contact.py).
+
+PyBullet's contact dynamics are chaotic (``test_batched.py`` shows it), so the model is held to
+PyBullet on a single slow contact, where both are well conditioned, and on the distribution of
+random-policy episodes, where the contact-free dynamics are far off.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from scipy import stats
+
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings, run_rwg
+from taskcomplexity.tasks.batched import BatchedReaching
+from taskcomplexity.tasks.pybullet_env import ReachingEnv
+from taskcomplexity.tasks.spec import make_task
+
+TASK = make_task("two_link_obstacle", "dense")
+BLOCK_ANGLE = math.atan2(TASK.arm.obstacle.position[1], TASK.arm.obstacle.position[0])
+
+
+@pytest.mark.parametrize(("omega", "elbow"), [(1.0, 0.0), (-1.0, 0.3), (2.0, 0.0)])
+def test_a_slow_sweep_into_the_block_follows_pybullet(omega, elbow):
+    """The forearm sweeps into the block, is stopped along the normal and slides around it."""
+    q0 = np.array([BLOCK_ANGLE - math.copysign(0.06, omega) - elbow * 0.5, elbow])
+    qd0 = np.array([omega, 0.0])
+    reference = ReachingEnv(task=TASK)
+    try:
+        reference.reset(options={"joint_angles": q0, "joint_velocities": qd0, "target": [0.5, 3.0]})
+        reference.step(np.zeros(2))
+        q_ref, qd_ref = reference.joint_state()
+    finally:
+        reference.close()
+    model = BatchedReaching(TASK, 1, contacts="model")
+    model.reset(torch.from_numpy(q0[None]), torch.tensor([[0.5, 3.0]]))
+    model.joint_velocities.copy_(torch.from_numpy(qd0[None]))
+    free = BatchedReaching(make_task("two_link", "dense"), 1)  # the same arm without the block
+    free.reset(torch.from_numpy(q0[None]), torch.tensor([[0.5, 3.0]]))
+    free.joint_velocities.copy_(torch.from_numpy(qd0[None]))
+    model.step(torch.zeros(1, 2))
+    free.step(torch.zeros(1, 2))
+    assert bool(model.contact[0])
+    np.testing.assert_allclose(model.joint_angles[0].numpy(), q_ref, atol=2e-3, rtol=0)
+    np.testing.assert_allclose(model.joint_velocities[0].numpy(), qd_ref, atol=1e-2, rtol=0)
+    # the block changed the motion by far more than the tolerance
+    assert np.abs(free.joint_angles[0].numpy() - q_ref).max() > 0.1
+
+
+def test_random_policy_episodes_have_pybullets_distribution():
+    settings = dict(policies=100, episodes=5, seed=3)
+    exact = run_rwg(TASK, NetworkSpec(), PriorSpec(), RWGSettings(**settings), "pybullet")
+    model = run_rwg(TASK, NetworkSpec(), PriorSpec(), RWGSettings(**settings, contacts="model"), "batched")
+    assert model.contacts > 0.6 * model.returns.size  # the block acts in most episodes
+    for name in ("returns", "steps"):
+        a, b = getattr(exact, name).ravel(), getattr(model, name).ravel()
+        assert stats.ks_2samp(a, b).pvalue > 0.01, name
+    collided = [((c.steps < TASK.max_steps) & ~c.success).mean() for c in (exact, model)]
+    assert collided[0] > 0.6 and abs(collided[0] - collided[1]) < 0.06
+    # without the block's forces most of these arms would sweep through it and live longer
+    assert abs(exact.steps.mean() - model.steps.mean()) < 2.0
