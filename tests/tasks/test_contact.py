@@ -63,3 +63,24 @@ def test_random_policy_episodes_have_pybullets_distribution():
     assert collided[0] > 0.6 and abs(collided[0] - collided[1]) < 0.06
     # without the block's forces most of these arms would sweep through it and live longer
     assert abs(exact.steps.mean() - model.steps.mean()) < 2.0
+
+
+def test_the_trigonometry_free_gate_never_misses_a_pose_near_the_block():
+    """near_block prunes by elbow angle and forearm direction before measuring; it must be conservative."""
+    from taskcomplexity.tasks import contact
+    from taskcomplexity.tasks.dynamics import contact_zone
+
+    zone = contact_zone(TASK, "model")
+    l1 = TASK.arm.links[0].length
+    rng = np.random.default_rng(5)
+    q1 = np.concatenate([rng.uniform(-20, 20, 20000), BLOCK_ANGLE + rng.normal(0, 0.5, 80000)])
+    q2 = rng.uniform(-20, 20, q1.size)
+    # the exact test: distance from the block to the forearm's axis segment, against the zone radius
+    ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
+    ux, uy = np.cos(q1 + q2), np.sin(q1 + q2)
+    rx, ry = zone[contact.OX] - ex, zone[contact.OY] - ey
+    t = np.clip(rx * ux + ry * uy, zone[contact.X0], zone[contact.X1])
+    near = (rx - t * ux) ** 2 + (ry - t * uy) ** 2 < zone[contact.ZONE_RADIUS] ** 2
+    gate = np.array([contact.near_block(zone, l1, a, b) for a, b in zip(q1, q2, strict=True)])
+    assert near.sum() > 1000  # the sample does reach the block
+    np.testing.assert_array_equal(gate, near)  # after the pruning, the gate is the exact test

@@ -106,7 +106,8 @@ class BatchedReaching:
         done : Tensor (B,), bool
             Terminated this step.
 
-        The three are buffers owned by the environment, overwritten by the next step.
+        The three are buffers owned by the environment, overwritten by the next step; the
+        observation of an environment that is no longer active keeps its last value.
 
         An environment whose forearm entered the block's contact zone during this step is rolled back
         to the state it had before the step, marked in :attr:`handoff` and made inactive: its episode

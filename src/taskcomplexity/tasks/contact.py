@@ -39,6 +39,16 @@ BLOCK_FRICTION = 1.0  # pybullet_data block.urdf's lateral friction
 
 # layout of the contact vector (see taskcomplexity.tasks.dynamics.contact_zone)
 MODE, OX, OY, X0, X1, ZONE_RADIUS, HALF_SIDE, HALF_WIDTH, Z_OVERLAP, ERP, SLOP, MU, ITERATIONS, RESIDUAL = range(14)
+BLOCK_ANGLE, WINDOW = 14, 15  # polar angle of the block; |q₁ − angle| beyond which the forearm is far
+CONE = 16  # then CONE_BINS (centre, half-width) pairs: where the forearm must point (see near_block)
+CONE_BINS = 256
+SIZE = CONE + 2 * CONE_BINS
+
+
+@numba.njit(cache=True)
+def scratch():
+    """Work arrays of :func:`detect` and :func:`solve` (allocated once per block of environments)."""
+    return np.empty((2, 3)), np.empty((2, 2)), np.empty((4, 6)), np.empty(4)
 
 
 @numba.njit(cache=True, inline="always")
@@ -59,7 +69,7 @@ def _clip(ax, ay, bx, by, cx, cy, tx, ty, half, out, count):
 
 
 @numba.njit(cache=True)
-def detect(zone, l1, q1, q2, points):
+def detect(zone, l1, q1, q2, points, ends):
     """Contact points of the forearm box and the block at joint angles (q1, q2).
 
     Parameters
@@ -71,6 +81,8 @@ def detect(zone, l1, q1, q2, points):
     points : ndarray (2, 3), out
         Rows (x, y, d): contact point on the forearm (m) and signed distance d < 0 (−penetration, m),
         deepest first.
+    ends : ndarray (2, 2)
+        Work array.
 
     Returns
     -------
@@ -109,7 +121,6 @@ def detect(zone, l1, q1, q2, points):
         kx, ky = -kx, -ky
     nx, ny = kx, ky
     tx, ty = -ny, nx
-    ends = np.empty((2, 2))
     count = 0
     if arm_face:
         # reference: the forearm's face towards the block; incident: the block's face towards the arm
@@ -156,15 +167,15 @@ def detect(zone, l1, q1, q2, points):
 
 
 @numba.njit(cache=True)
-def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt):
+def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt, rows, impulse):
     """Joint velocities after the contact impulses (step 3 of the module docstring).
 
-    ``inv`` is M⁻¹ at this pose as (inv11, inv12, inv22); (u, v) the free joint velocities v′.
-    Returns (u″, v″).
+    ``inv`` is M⁻¹ at this pose as (inv11, inv12, inv22); (u, v) the free joint velocities v′;
+    ``rows`` (4, 6) and ``impulse`` (4,) are work arrays. Returns (u″, v″).
     """
     ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
     tx, ty = -ny, nx
-    rows = np.zeros((2 * count, 6))  # j1, j2, M⁻¹Jᵀ (2), 1/(J M⁻¹ Jᵀ), bias
+    # per row: J (2), M⁻¹Jᵀ (2), 1/(J M⁻¹ Jᵀ), target velocity
     for i in range(count):
         px, py = points[i, 0], points[i, 1]
         for r, (kx, ky) in enumerate(((nx, ny), (tx, ty))):
@@ -176,7 +187,7 @@ def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt):
             row[4] = 1.0 / (row[0] * row[2] + row[1] * row[3])
         depth = points[i, 2] + zone[SLOP]
         rows[2 * i, 5] = -depth / dt if depth > 0.0 else -zone[ERP] * depth / dt
-    impulse = np.zeros(2 * count)
+    impulse[:] = 0.0
     du = dv = 0.0
     for _ in range(int(zone[ITERATIONS])):
         residual = 0.0
@@ -200,3 +211,32 @@ def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt):
         if residual <= zone[RESIDUAL]:
             break
     return u + du, v + dv
+
+
+@numba.njit(cache=True, inline="always")
+def near_block(zone, l1, q1, q2):
+    """Whether the forearm's box may be in contact range of the block (a conservative test).
+
+    First without trigonometry: the elbow must lie within reach of the block, i.e. q₁ within
+    ``zone[WINDOW]`` of the block's polar angle, and the forearm must point at the block, i.e.
+    q₁ + q₂ within the cone tabulated for that elbow angle; then the distance from the block to the
+    forearm's axis segment against the zone radius.
+    """
+    # angles reduced to (−π, π] up to rounding, far below the tables' slack (multiplying, not dividing,
+    # keeps this test cheap: it runs at every physics step)
+    window = zone[WINDOW]
+    d = q1 - zone[BLOCK_ANGLE]
+    d -= 2.0 * np.pi * np.floor(d * (0.5 / np.pi) + 0.5)
+    if abs(d) > window:
+        return False
+    k = CONE + 2 * min(int((d + window) * (0.5 * CONE_BINS / window)), CONE_BINS - 1)
+    a = q1 + q2 - zone[k]
+    a -= 2.0 * np.pi * np.floor(a * (0.5 / np.pi) + 0.5)
+    if abs(a) > zone[k + 1]:
+        return False
+    ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
+    dx, dy = np.cos(q1 + q2), np.sin(q1 + q2)
+    rx, ry = zone[OX] - ex, zone[OY] - ey
+    t = min(max(rx * dx + ry * dy, zone[X0]), zone[X1])
+    px, py = rx - t * dx, ry - t * dy
+    return px * px + py * py < zone[ZONE_RADIUS] * zone[ZONE_RADIUS]

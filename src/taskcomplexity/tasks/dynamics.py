@@ -147,18 +147,6 @@ def _two_link_step_const(p, inv, q1, q2, u, qd2, tau1, tau2, dt):
     return q1 + dt * u, q2 + dt * qd2, u, qd2
 
 
-@numba.njit(cache=True, inline="always")
-def _near_block(p, obstacle, q1, q2):
-    """Whether the forearm's box may be in contact range of the block (a conservative test)."""
-    l1 = p[7]
-    ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
-    dx, dy = np.cos(q1 + q2), np.sin(q1 + q2)
-    rx, ry = obstacle[1] - ex, obstacle[2] - ey
-    t = min(max(rx * dx + ry * dy, obstacle[3]), obstacle[4])
-    px, py = rx - t * dx, ry - t * dy
-    return px * px + py * py < obstacle[5] * obstacle[5]
-
-
 BLOCK = 256  # environments advanced in lock-step, so the compiler can interleave (and vectorise) them
 
 
@@ -186,11 +174,12 @@ def _inverse_at(params, const_inv, q2):
 
 
 @numba.njit(cache=True, inline="always")
-def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched):
+def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched, live):
     """One environment step of n environments in lock-step, in place on length-n arrays.
 
     ``a1, a2`` joint angles, ``u, v`` joint velocities, ``t1, t2`` torques of the first physics step
-    (``a2, v, t2`` unused by a 1-link arm). ``zone`` (:func:`contact_zone`) selects what happens near
+    (``a2, v, t2`` unused by a 1-link arm). Environments with ``live[j]`` False may be skipped
+    (their results are discarded). ``zone`` (:func:`contact_zone`) selects what happens near
     the block: mode 0, no block; mode 1, ``touched[j]`` is set when environment j's forearm enters the
     block's contact zone (for a hand-over); mode 2, contacts act (:mod:`taskcomplexity.tasks.contact`)
     and ``touched[j]`` is set when one did.
@@ -199,28 +188,36 @@ def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touch
     two_links = params[0] == 2
     const = two_links and params[9] == 0.0
     mode = int(zone[0]) if two_links else 0
-    points = np.empty((2, 3))
-    for s in range(substeps):
-        on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
-        if mode == 2:
-            for j in range(n):
-                b1, b2 = a1[j], a2[j]
+    l1 = params[7]
+    if mode == 2:
+        # one environment at a time, its state in registers: most physics steps are far from the block
+        points, ends, rows, impulse = contact.scratch()
+        for j in range(n):
+            if not live[j]:
+                continue
+            c1, c2, w1, w2 = a1[j], a2[j], u[j], v[j]
+            for s in range(substeps):
+                on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
+                b1, b2 = c1, c2
                 if const:
-                    a1[j], a2[j], u[j], v[j] = _two_link_step_const(
-                        params, inv, b1, b2, u[j], v[j], on * t1[j], on * t2[j], dt
-                    )
+                    c1, c2, w1, w2 = _two_link_step_const(params, inv, b1, b2, w1, w2, on * t1[j], on * t2[j], dt)
                 else:
-                    a1[j], a2[j], u[j], v[j] = _two_link_step(params, b1, b2, u[j], v[j], on * t1[j], on * t2[j], dt)
-                if not _near_block(params, zone, b1, b2):
+                    c1, c2, w1, w2 = _two_link_step(params, b1, b2, w1, w2, on * t1[j], on * t2[j], dt)
+                if not contact.near_block(zone, l1, b1, b2):
                     continue
-                count, nx, ny = contact.detect(zone, params[7], b1, b2, points)
+                count, nx, ny = contact.detect(zone, l1, b1, b2, points, ends)
                 if count == 0:
                     continue
                 touched[j] = True
-                u[j], v[j] = contact.solve(zone, params[7], b1, _inverse_at(params, inv, b2), u[j], v[j], points,
-                                           count, nx, ny, dt)
-                a1[j], a2[j] = b1 + dt * u[j], b2 + dt * v[j]
-        elif const:
+                w1, w2 = contact.solve(
+                    zone, l1, b1, _inverse_at(params, inv, b2), w1, w2, points, count, nx, ny, dt, rows, impulse
+                )
+                c1, c2 = b1 + dt * w1, b2 + dt * w2
+            a1[j], a2[j], u[j], v[j] = c1, c2, w1, w2
+        return
+    for s in range(substeps):
+        on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
+        if const:
             for j in range(n):
                 a1[j], a2[j], u[j], v[j] = _two_link_step_const(
                     params, inv, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
@@ -233,12 +230,13 @@ def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touch
                 a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
         if mode == 1:
             for j in range(n):
-                touched[j] |= _near_block(params, zone, a1[j], a2[j])
+                if live[j] and not touched[j]:
+                    touched[j] = contact.near_block(zone, l1, a1[j], a2[j])
 
 
 CONTACT_BREAKING_THRESHOLD = 0.02  # PyBullet's default, m
 CONTACT_MODES = {"pybullet": 1.0, "model": 2.0}
-NO_OBSTACLE = np.zeros(contact.RESIDUAL + 1)
+NO_OBSTACLE = np.zeros(contact.SIZE)
 
 
 def contact_zone(task, contacts: str = "pybullet") -> np.ndarray:
@@ -279,4 +277,35 @@ def contact_zone(task, contacts: str = "pybullet") -> np.ndarray:
     zone[contact.MU] = contact.LINK_FRICTION * contact.BLOCK_FRICTION
     zone[contact.ITERATIONS] = contact.SOLVER_ITERATIONS
     zone[contact.RESIDUAL] = contact.RESIDUAL_THRESHOLD
+    # the elbow (at l₁ from the shoulder) must be within reach of the block: the law of cosines
+    # bounds |q₁ − block angle| (plus a hair for rounding)
+    l1, rho = task.arm.links[0].length, float(np.hypot(*obstacle.position))
+    reach = max(LINK_OVERHANG, task.arm.links[1].length) + radius
+    cosine = (l1 * l1 + rho * rho - reach * reach) / (2 * l1 * rho)
+    zone[contact.BLOCK_ANGLE] = float(np.arctan2(obstacle.position[1], obstacle.position[0]))
+    zone[contact.WINDOW] = float(np.arccos(cosine)) + 1e-6 if cosine > -1.0 else 4.0
+    zone[contact.CONE :] = _pointing_cones(l1, obstacle.position, zone[contact.BLOCK_ANGLE], zone[contact.WINDOW],
+                                           radius).ravel()
     return zone
+
+
+def _pointing_cones(l1: float, block, angle: float, window: float, radius: float) -> np.ndarray:
+    """Per bin of elbow angle q₁ ∈ angle ± window: (centre, half-width) of the forearm directions q₁ + q₂
+    for which the block can be within ``radius`` of the forearm (a conservative table).
+
+    From an elbow at e, a point on the forearm's ray within ``radius`` of the block o requires the ray
+    to deviate from the direction of o − e by at most asin(radius/|o − e|). Each bin takes the hull of
+    that cone over 33 elbow angles across the bin, widened by the largest change between two of them.
+    """
+    bins = contact.CONE_BINS
+    edges = angle - window + 2 * window * np.arange(bins + 1) / bins
+    q = edges[:-1, None] + (edges[1:] - edges[:-1])[:, None] * np.linspace(0.0, 1.0, 33)[None, :]
+    rx, ry = block[0] - l1 * np.cos(q), block[1] - l1 * np.sin(q)
+    distance = np.hypot(rx, ry)
+    if (distance <= radius).any():  # the elbow itself can be inside the zone: no pruning
+        return np.tile([0.0, 4.0], (bins, 1))
+    direction = np.unwrap(np.arctan2(ry, rx), axis=1)
+    half = np.arcsin(radius / distance)
+    slack = np.abs(np.diff(direction, axis=1)).max(axis=1) + np.abs(np.diff(half, axis=1)).max(axis=1) + 1e-6
+    low, high = (direction - half).min(axis=1) - slack, (direction + half).max(axis=1) + slack
+    return np.stack([(low + high) / 2, (high - low) / 2], axis=1)

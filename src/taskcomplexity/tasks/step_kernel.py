@@ -93,12 +93,13 @@ def _upper_arm_clearance(p, q1):
 def _forearm_clearance(p, elbow_x, elbow_y, eff_x, eff_y):
     """mechanics.forearm_clearance: d₂ over the sampled forearm points, m, clipped at 0."""
     points = int(p[POINTS])
-    nearest = np.inf
+    nearest = np.inf  # squared: sqrt is monotone and correctly rounded, so sqrt(min) = min(sqrt) exactly
     for k in range(points + 1):
         f = k / points
         dx = elbow_x + f * (eff_x - elbow_x) - p[OX]
         dy = elbow_y + f * (eff_y - elbow_y) - p[OY]
-        nearest = min(nearest, np.sqrt(dx * dx + dy * dy))
+        nearest = min(nearest, dx * dx + dy * dy)
+    nearest = np.sqrt(nearest)
     return max(nearest - p[REACH], 0.0)
 
 
@@ -150,9 +151,9 @@ def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, succ
             if two_links:
                 a2[j], v[j] = q[e, 1], qd[e, 1]
                 t2[j] = min(max(action[e, 1], -1.0), 1.0) * p[SCALE2]
-            if obstacle:
+            if obstacle and active[e]:
                 upper[j] = _upper_arm_clearance(p, a1[j])  # measured before the step
-        integrate_block(dynamics, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
+        integrate_block(dynamics, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched, active[lo : lo + n])
         for j in range(n):
             e = lo + j
             live = active[e] and not (handover and touched[j])
@@ -167,12 +168,12 @@ def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, succ
                 # leave the episode to the PyBullet reference
                 handoff[e] = True
                 active[e] = False
+            reward[e], done[e] = 0.0, False
+            if not live:
+                continue  # its observation is left as it was: no policy acts on it any more
             d, elbow_x, elbow_y, ex, ey = _observe(
                 p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], target[e, 0], target[e, 1], obs[e]
             )
-            reward[e], done[e] = 0.0, False
-            if not live:
-                continue
             hit = d < p[THRESHOLD]
             collision = False
             if p[SPARSE] > 0:
