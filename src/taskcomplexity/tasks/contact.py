@@ -214,6 +214,14 @@ def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt, rows, impulse):
 
 
 @numba.njit(cache=True, inline="always")
+def in_reach(zone, q1):
+    """Whether the elbow, at shoulder angle q1, is within reach of the block (q₁ within the window)."""
+    d = q1 - zone[BLOCK_ANGLE]
+    d -= 2.0 * np.pi * np.floor(d * (0.5 / np.pi) + 0.5)
+    return abs(d) <= zone[WINDOW]
+
+
+@numba.njit(cache=True, inline="always")
 def near_block(zone, l1, q1, q2):
     """Whether the forearm's box may be in contact range of the block (a conservative test).
 
@@ -224,11 +232,11 @@ def near_block(zone, l1, q1, q2):
     """
     # angles reduced to (−π, π] up to rounding, far below the tables' slack (multiplying, not dividing,
     # keeps this test cheap: it runs at every physics step)
+    if not in_reach(zone, q1):
+        return False
     window = zone[WINDOW]
     d = q1 - zone[BLOCK_ANGLE]
     d -= 2.0 * np.pi * np.floor(d * (0.5 / np.pi) + 0.5)
-    if abs(d) > window:
-        return False
     k = CONE + 2 * min(int((d + window) * (0.5 * CONE_BINS / window)), CONE_BINS - 1)
     a = q1 + q2 - zone[k]
     a -= 2.0 * np.pi * np.floor(a * (0.5 / np.pi) + 0.5)

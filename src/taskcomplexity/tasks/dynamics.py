@@ -174,64 +174,69 @@ def _inverse_at(params, const_inv, q2):
 
 
 @numba.njit(cache=True, inline="always")
-def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched, live):
+def _free_step(params, inv, const, two_links, a1, a2, u, v, t1, t2, on, dt):
+    """One contact-free physics step of every environment of the block (a loop the compiler vectorises)."""
+    n = a1.shape[0]
+    if const:
+        for j in range(n):
+            a1[j], a2[j], u[j], v[j] = _two_link_step_const(params, inv, a1[j], a2[j], u[j], v[j], on * t1[j],
+                                                            on * t2[j], dt)
+    elif two_links:
+        for j in range(n):
+            a1[j], a2[j], u[j], v[j] = _two_link_step(params, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt)
+    else:
+        for j in range(n):
+            a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
+
+
+@numba.njit(cache=True, inline="always")
+def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched):
     """One environment step of n environments in lock-step, in place on length-n arrays.
 
     ``a1, a2`` joint angles, ``u, v`` joint velocities, ``t1, t2`` torques of the first physics step
-    (``a2, v, t2`` unused by a 1-link arm). Environments with ``live[j]`` False may be skipped
-    (their results are discarded). ``zone`` (:func:`contact_zone`) selects what happens near
+    (``a2, v, t2`` unused by a 1-link arm). ``zone`` (:func:`contact_zone`) selects what happens near
     the block: mode 0, no block; mode 1, ``touched[j]`` is set when environment j's forearm enters the
     block's contact zone (for a hand-over); mode 2, contacts act (:mod:`taskcomplexity.tasks.contact`)
     and ``touched[j]`` is set when one did.
+
+    Every physics step is a contact-free step of all n environments, then a cheap test of which
+    elbows are within reach of the block, then the exact work for those few.
     """
     n = a1.shape[0]
     two_links = params[0] == 2
     const = two_links and params[9] == 0.0
     mode = int(zone[0]) if two_links else 0
     l1 = params[7]
-    if mode == 2:
-        # one environment at a time, its state in registers: most physics steps are far from the block
-        points, ends, rows, impulse = contact.scratch()
-        for j in range(n):
-            if not live[j]:
-                continue
-            c1, c2, w1, w2 = a1[j], a2[j], u[j], v[j]
-            for s in range(substeps):
-                on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
-                b1, b2 = c1, c2
-                if const:
-                    c1, c2, w1, w2 = _two_link_step_const(params, inv, b1, b2, w1, w2, on * t1[j], on * t2[j], dt)
-                else:
-                    c1, c2, w1, w2 = _two_link_step(params, b1, b2, w1, w2, on * t1[j], on * t2[j], dt)
-                if not contact.near_block(zone, l1, b1, b2):
+    b1, b2 = np.empty(n if mode == 2 else 0), np.empty(n if mode == 2 else 0)
+    reach = np.zeros(n if mode > 0 else 0, dtype=np.bool_)
+    points, ends, rows, impulse = contact.scratch()
+    for s in range(substeps):
+        on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
+        if mode == 2:  # detection happens at the physics step's starting pose
+            b1[:] = a1
+            b2[:] = a2
+            for j in range(n):
+                reach[j] = contact.in_reach(zone, a1[j])
+        _free_step(params, inv, const, two_links, a1, a2, u, v, t1, t2, on, dt)
+        if mode == 1:
+            for j in range(n):
+                reach[j] = contact.in_reach(zone, a1[j])
+            for j in range(n):
+                if reach[j] and not touched[j]:
+                    touched[j] = contact.near_block(zone, l1, a1[j], a2[j])
+        elif mode == 2:
+            for j in range(n):
+                if not reach[j] or not contact.near_block(zone, l1, b1[j], b2[j]):
                     continue
-                count, nx, ny = contact.detect(zone, l1, b1, b2, points, ends)
+                count, nx, ny = contact.detect(zone, l1, b1[j], b2[j], points, ends)
                 if count == 0:
                     continue
                 touched[j] = True
-                w1, w2 = contact.solve(
-                    zone, l1, b1, _inverse_at(params, inv, b2), w1, w2, points, count, nx, ny, dt, rows, impulse
+                u[j], v[j] = contact.solve(
+                    zone, l1, b1[j], _inverse_at(params, inv, b2[j]), u[j], v[j], points, count, nx, ny, dt, rows,
+                    impulse,
                 )
-                c1, c2 = b1 + dt * w1, b2 + dt * w2
-            a1[j], a2[j], u[j], v[j] = c1, c2, w1, w2
-        return
-    for s in range(substeps):
-        on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
-        if const:
-            for j in range(n):
-                a1[j], a2[j], u[j], v[j] = _two_link_step_const(
-                    params, inv, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt
-                )
-        elif two_links:
-            for j in range(n):
-                a1[j], a2[j], u[j], v[j] = _two_link_step(params, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt)
-        else:
-            for j in range(n):
-                a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
-        if mode == 1:
-            for j in range(n):
-                if live[j] and not touched[j]:
-                    touched[j] = contact.near_block(zone, l1, a1[j], a2[j])
+                a1[j], a2[j] = b1[j] + dt * u[j], b2[j] + dt * v[j]
 
 
 CONTACT_BREAKING_THRESHOLD = 0.02  # PyBullet's default, m

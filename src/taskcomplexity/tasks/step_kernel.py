@@ -139,38 +139,43 @@ def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, succ
     inv = inverse_mass_matrix(dynamics)
     for blk in numba.prange((n_env + BLOCK - 1) // BLOCK):
         lo = blk * BLOCK
-        n = min(BLOCK, n_env - lo)
+        # the block's active environments, packed: the physics runs on them only
+        index = np.empty(min(BLOCK, n_env - lo), dtype=np.int64)
+        n = 0
+        for e in range(lo, lo + index.shape[0]):
+            reward[e], done[e] = 0.0, False
+            if active[e]:
+                index[n] = e
+                n += 1
+        if n == 0:
+            continue
         a1, u, t1 = np.empty(n), np.empty(n), np.empty(n)
         a2, v, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
         upper = np.zeros(n)
         touched = np.zeros(n, dtype=np.bool_)
         for j in range(n):
-            e = lo + j
+            e = index[j]
             a1[j], u[j] = q[e, 0], qd[e, 0]
             t1[j] = min(max(action[e, 0], -1.0), 1.0) * p[SCALE1]
             if two_links:
                 a2[j], v[j] = q[e, 1], qd[e, 1]
                 t2[j] = min(max(action[e, 1], -1.0), 1.0) * p[SCALE2]
-            if obstacle and active[e]:
+            if obstacle:
                 upper[j] = _upper_arm_clearance(p, a1[j])  # measured before the step
-        integrate_block(dynamics, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched, active[lo : lo + n])
+        integrate_block(dynamics, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
         for j in range(n):
-            e = lo + j
-            live = active[e] and not (handover and touched[j])
-            if live:
-                if touched[j]:
-                    contact[e] = True
-                q[e, 0], qd[e, 0] = a1[j], u[j]
-                if two_links:
-                    q[e, 1], qd[e, 1] = a2[j], v[j]
-            elif active[e]:
+            e = index[j]
+            if handover and touched[j]:
                 # the forearm entered the block's contact zone: keep the state before the step and
                 # leave the episode to the PyBullet reference
                 handoff[e] = True
                 active[e] = False
-            reward[e], done[e] = 0.0, False
-            if not live:
                 continue  # its observation is left as it was: no policy acts on it any more
+            if touched[j]:
+                contact[e] = True
+            q[e, 0], qd[e, 0] = a1[j], u[j]
+            if two_links:
+                q[e, 1], qd[e, 1] = a2[j], v[j]
             d, elbow_x, elbow_y, ex, ey = _observe(
                 p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], target[e, 0], target[e, 1], obs[e]
             )
