@@ -67,3 +67,20 @@ def test_observation_reward_and_done_are_those_of_mechanics(arm, reward, contact
         assert handoff[: B // 3].mean() > 0.3  # forearms near the block were handed over,
         np.testing.assert_array_equal(q1[handoff], q0[handoff])  # from the state before the step
         assert (upper[moved] < 0.6).any() and (forearm[moved] < 0.2).any()  # proximity terms exercised
+
+
+def test_cached_kernels_are_dropped_when_any_kernel_source_changes(tmp_path):
+    from taskcomplexity.tasks import step_kernel
+
+    kernel = tmp_path / "dynamics._step-1.py311.nbi"
+    other = tmp_path / "unrelated.nbi"
+    kernel.write_text("compiled from old code")
+    other.write_text("not ours")
+    assert step_kernel.drop_stale_kernels(tmp_path)  # no stamp yet: the cache is not trusted
+    assert not kernel.exists() and other.exists()
+    kernel.write_text("compiled from the current code")
+    assert not step_kernel.drop_stale_kernels(tmp_path)  # same sources: kept
+    assert kernel.exists()
+    (tmp_path / "taskcomplexity-kernels.sha256").write_text("digest of other sources")
+    assert step_kernel.drop_stale_kernels(tmp_path)
+    assert not kernel.exists()

@@ -13,12 +13,50 @@ separate tensor operations per step spent most of its time moving memory.
 
 from __future__ import annotations
 
+import hashlib
+import os
+from pathlib import Path
+
 import numba
 import numpy as np
 
 from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix
 from taskcomplexity.tasks.mechanics import BLOCK_FOOTPRINT, COLLISION_MARGIN, TWO_PI
 from taskcomplexity.tasks.spec import LINK_WIDTH, TaskSpec
+
+KERNEL_MODULES = ("step_kernel", "dynamics", "contact", "mechanics")
+
+
+def drop_stale_kernels(directory: Path | None = None) -> bool:
+    """Delete numba's on-disk kernels of this package when any of their sources changed.
+
+    numba keys a cached kernel on its own file only: after an edit to :mod:`dynamics` or
+    :mod:`contact` it would go on loading a :func:`_step` compiled from the old code. A digest of all
+    the kernel sources, stamped next to the cache, catches that. Returns whether anything was dropped.
+    """
+    here = Path(__file__).resolve().parent
+    directory = directory or (Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else here / "__pycache__")
+    digest = hashlib.sha256(b"".join((here / f"{name}.py").read_bytes() for name in KERNEL_MODULES)).hexdigest()
+    stamp = directory / "taskcomplexity-kernels.sha256"
+    try:
+        if stamp.read_text() == digest:
+            return False
+    except OSError:
+        pass
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        for path in directory.iterdir():
+            if path.suffix in (".nbi", ".nbc") and path.name.split(".")[0] in KERNEL_MODULES:
+                path.unlink(missing_ok=True)
+        tmp = stamp.with_name(f"{stamp.name}.{os.getpid()}.tmp")
+        tmp.write_text(digest)
+        tmp.replace(stamp)
+    except OSError:  # a read-only install: numba then caches elsewhere, or compiles afresh
+        return False
+    return True
+
+
+drop_stale_kernels()
 
 # layout of the task vector
 DOF, ROUND, L1, L2, THRESHOLD, SPARSE, SCALE1, SCALE2 = range(8)
