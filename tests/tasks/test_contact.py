@@ -84,3 +84,40 @@ def test_the_trigonometry_free_gate_never_misses_a_pose_near_the_block():
     gate = np.array([contact.near_block(zone, l1, a, b) for a, b in zip(q1, q2, strict=True)])
     assert near.sum() > 1000  # the sample does reach the block
     np.testing.assert_array_equal(gate, near)  # after the pruning, the gate is the exact test
+
+
+def test_one_sweep_solves_happen_at_pybullets_measured_rates():
+    """The stand-in for the ground-plane flicker fires at the configured rates, on any poses."""
+    from taskcomplexity.tasks import contact
+    from taskcomplexity.tasks.dynamics import contact_zone
+
+    zone = contact_zone(TASK, "model")
+    rng = np.random.default_rng(8)
+    poses = np.column_stack([BLOCK_ANGLE + rng.normal(0, 0.2, 40000), rng.uniform(-3, 3, 40000)])
+    for fresh, rate in ((True, contact.P_SINGLE_FRESH), (False, contact.P_SINGLE_CONTINUING)):
+        fired = np.mean([contact.single_sweep(zone, fresh, a, b) for a, b in poses])
+        assert abs(fired - rate) < 4 * np.sqrt(rate * (1 - rate) / len(poses)) + 1e-3, (fresh, fired)
+
+
+def test_a_one_sweep_solve_keeps_the_first_normal_impulse():
+    """One sweep: the normal impulse is not corrected for the friction impulse that follows it."""
+    from taskcomplexity.tasks import contact
+    from taskcomplexity.tasks.dynamics import ArmDynamics, contact_zone, inverse_mass_matrix
+    from taskcomplexity.tasks.urdf import read_arm_urdf, urdf_path
+
+    zone = contact_zone(TASK, "model")
+    inv = inverse_mass_matrix(ArmDynamics(read_arm_urdf(urdf_path(TASK.arm))).vector())
+    l1 = TASK.arm.links[0].length
+    q1, q2 = BLOCK_ANGLE - 0.004, 0.0  # the forearm's side overlapping the block
+    points, ends, rows, impulse = contact.scratch()
+    count, nx, ny = contact.detect(zone, l1, q1, q2, points, ends)
+    assert count >= 1 and points[0, 2] < 0
+    u, v = 1.0, -0.5  # pressing into the block and sliding
+    single = contact.solve(zone, l1, q1, inv, u, v, points, count, nx, ny, 0.02, rows, impulse, True)
+    converged = contact.solve(zone, l1, q1, inv, u, v, points, count, nx, ny, 0.02, rows, impulse, False)
+    assert np.abs(np.subtract(single, converged)).max() > 1e-4  # the two differ ...
+    row_n = rows[0]
+    vn_single = row_n[0] * single[0] + row_n[1] * single[1]
+    vn_converged = row_n[0] * converged[0] + row_n[1] * converged[1]
+    assert vn_converged == pytest.approx(row_n[5], abs=1e-6)  # ... converged: exactly the target speed
+    assert abs(vn_single - row_n[5]) > 1e-6  # one sweep: friction has moved it off the target

@@ -209,6 +209,7 @@ def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touch
     l1 = params[7]
     b1, b2 = np.empty(n if mode == 2 else 0), np.empty(n if mode == 2 else 0)
     reach = np.zeros(n if mode > 0 else 0, dtype=np.bool_)
+    was = np.zeros(n if mode == 2 else 0, dtype=np.bool_)  # block contact at the previous physics step
     points, ends, rows, impulse = contact.scratch()
     for s in range(substeps):
         on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
@@ -227,14 +228,18 @@ def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touch
         elif mode == 2:
             for j in range(n):
                 if not reach[j] or not contact.near_block(zone, l1, b1[j], b2[j]):
+                    was[j] = False
                     continue
                 count, nx, ny = contact.detect(zone, l1, b1[j], b2[j], points, ends)
                 if count == 0:
+                    was[j] = False
                     continue
                 touched[j] = True
+                single = contact.single_sweep(zone, not was[j], b1[j], b2[j])
+                was[j] = True
                 u[j], v[j] = contact.solve(
                     zone, l1, b1[j], _inverse_at(params, inv, b2[j]), u[j], v[j], points, count, nx, ny, dt, rows,
-                    impulse,
+                    impulse, single,
                 )
                 a1[j], a2[j] = b1[j] + dt * u[j], b2[j] + dt * v[j]
 
@@ -282,6 +287,8 @@ def contact_zone(task, contacts: str = "pybullet") -> np.ndarray:
     zone[contact.MU] = contact.LINK_FRICTION * contact.BLOCK_FRICTION
     zone[contact.ITERATIONS] = contact.SOLVER_ITERATIONS
     zone[contact.RESIDUAL] = contact.RESIDUAL_THRESHOLD
+    zone[contact.SINGLE_FRESH] = contact.P_SINGLE_FRESH
+    zone[contact.SINGLE_CONTINUING] = contact.P_SINGLE_CONTINUING
     # the elbow (at l₁ from the shoulder) must be within reach of the block: the law of cosines
     # bounds |q₁ − block angle| (plus a hair for rounding)
     l1, rho = task.arm.links[0].length, float(np.hypot(*obstacle.position))
