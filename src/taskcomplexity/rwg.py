@@ -18,10 +18,11 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec, sample_policies, select_policy
 from taskcomplexity.seeding import episode_uniforms
 from taskcomplexity.tasks import mechanics
+from taskcomplexity.tasks.dynamics import CONTACT_MODES
 from taskcomplexity.tasks.spec import TaskSpec
 
 BACKENDS = ("batched", "pybullet")
-CONTACTS = ("pybullet", "model")
+CONTACTS = tuple(CONTACT_MODES)
 
 
 @dataclass(frozen=True)
