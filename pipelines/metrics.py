@@ -37,7 +37,8 @@ def run(cfg: DictConfig):
     if scope not in ("study", "task"):
         raise ConfigError(f"metrics.scope must be one of ['study', 'task'], got {scope!r}")
     if scope == "study":
-        names, requests = zip(*study_requests(cfg), strict=True)
+        entries, requests = zip(*study_requests(cfg), strict=True)
+        names = [entry.id for entry in entries]
     else:
         names, requests = None, [rwg_request_from_config(cfg, task_from_config(cfg))]
     settings = metrics_settings_from_config(cfg)

@@ -17,7 +17,8 @@ from taskcomplexity.config import build, task_from_config
 from taskcomplexity.errors import ConfigError, TaskComplexityError
 
 CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
-GROUPS = ("arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "sac", "report", "study", "experiment")
+GROUPS = ("task", "arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "sac", "report", "study",
+          "experiment")
 EXIT_BAD_INPUT = 2
 
 log = logging.getLogger("taskcomplexity")
@@ -78,15 +79,16 @@ def sampler_from_config(cfg: Any):
 
 
 def rwg_request_from_config(cfg: Any, task=None):
-    """The :class:`RWGRequest` of a composed config (for ``task`` if given)."""
+    """The :class:`RWGRequest` of a composed config (for ``task`` if given); ``backend=auto`` resolved."""
     from taskcomplexity.pipeline.rwg_stage import RWGRequest
-    from taskcomplexity.rwg import BACKENDS, RWGSettings
+    from taskcomplexity.rwg import AUTO, BACKENDS, RWGSettings, resolve_backend
 
-    if str(cfg.backend) not in BACKENDS:
-        raise ConfigError(f"backend must be one of {list(BACKENDS)}, got {cfg.backend!r}")
+    if str(cfg.backend) not in (AUTO, *BACKENDS):
+        raise ConfigError(f"backend must be one of {[AUTO, *BACKENDS]}, got {cfg.backend!r}")
+    task = task or task_from_config(cfg)
     network, prior = sampler_from_config(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
-    return RWGRequest(task or task_from_config(cfg), network, prior, settings, str(cfg.backend))
+    return RWGRequest(task, network, prior, settings, resolve_backend(task, str(cfg.backend)))
 
 
 def metrics_settings_from_config(cfg: Any):
@@ -96,83 +98,105 @@ def metrics_settings_from_config(cfg: Any):
     return build(MetricsSettings, node, "metrics")
 
 
-def study_tasks(cfg: Any) -> list:
-    """The study's tasks, built from the arm/reward config files they name."""
-    from omegaconf import OmegaConf
+def study_from(cfg: Any):
+    """The :class:`~taskcomplexity.study.Study` of a composed config (``cfg.study``)."""
+    from taskcomplexity.study import study_from_config
 
-    from taskcomplexity.tasks.spec import ArmSpec, RewardSpec, TaskSpec
-
-    tasks = []
-    for i, entry in enumerate(cfg.study.tasks):
-        for group in ("arm", "reward"):
-            if not (CONF_DIR / group / f"{entry[group]}.yaml").exists():
-                allowed = sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
-                raise ConfigError(
-                    f"study.tasks[{i}].{group}={entry[group]} is not a known option (allowed: {', '.join(allowed)})"
-                )
-        arm_node = _load_group("arm", entry["arm"])
-        reward_node = OmegaConf.load(CONF_DIR / "reward" / f"{entry['reward']}.yaml")
-        task = TaskSpec(
-            arm=build(ArmSpec, arm_node, f"study.tasks[{i}].arm"),
-            reward=build(RewardSpec, reward_node, f"study.tasks[{i}].reward"),
-            max_steps=int(cfg.max_steps),
-        )
-        tasks.append(task.validate())
-    return tasks
+    return study_from_config(cfg.study)
 
 
-def _load_group(group: str, name: str):
-    """A group option with its own ``defaults`` (e.g. two_link_obstacle extends two_link)."""
-    from omegaconf import OmegaConf
-
-    node = OmegaConf.load(CONF_DIR / group / f"{name}.yaml")
-    defaults = node.pop("defaults", [])
-    base = OmegaConf.create()
-    for item in defaults:
-        if item != "_self_":
-            base = OmegaConf.merge(base, _load_group(group, item))
-    return OmegaConf.merge(base, node)
+TASK_GROUPS = ("task", "arm", "reward", "prior", "network")
+"""Config groups a study entry may choose for itself."""
 
 
-def study_requests(cfg: Any) -> list[tuple[str, Any]]:
-    """(name, RWGRequest) for every entry of ``study.tasks``.
+def user_overrides() -> list[str]:
+    """The overrides typed on the command line of the running Hydra app (none outside an app)."""
+    from hydra.core.hydra_config import HydraConfig
 
-    An entry names its ``arm`` and ``reward`` and may name a ``prior``, a ``network`` (defaults: the
-    composed ones) and a display ``name`` (default: the task id); ``study.policies`` and
-    ``study.episodes``, when set, override N and M for every entry.
+    if not HydraConfig.initialized():
+        return []
+    overrides = HydraConfig.get().overrides
+    return [*overrides.task, *(o for o in overrides.hydra if o.lstrip("+~").startswith("hydra.searchpath"))]
+
+
+def _entry_overrides(entry, typed: list[str], where: str) -> list[str]:
+    """Compose overrides of one study entry: the user's task-level overrides, then the entry's choices.
+
+    A group the entry chooses for itself cannot also be chosen on the command line: that override
+    would be silently ignored, so it is refused.
+    """
+    chosen = {g for g in TASK_GROUPS if g in entry.selection}
+    if "env_id" in entry.selection:
+        chosen.add("task")
+    forwarded = []
+    for override in typed:
+        key = override.partition("=")[0].lstrip("+~")
+        if key in chosen:
+            raise ConfigError(f"{override} conflicts with {where} ({entry.id}), which chooses its own {key}; "
+                              f"drop the override or edit the study")
+        forwarded.append(override)
+    own = [f"{g}={entry.selection[g]}" for g in TASK_GROUPS if g in entry.selection]
+    if "env_id" in entry.selection and "task" not in entry.selection:
+        own.insert(0, "task=gym")
+    return forwarded + own
+
+
+def _compose(overrides: list[str], where: str):
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.errors import HydraException
+    from omegaconf.errors import OmegaConfBaseException
+
+    try:
+        if GlobalHydra.instance().is_initialized():
+            return compose("config", overrides=overrides)
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            return compose("config", overrides=overrides)
+    except (HydraException, OmegaConfBaseException) as err:
+        message = " ".join(str(err).split())
+        raise ConfigError(f"{where}: {message}") from err
+
+
+def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
+    """(StudyTask, RWGRequest) for every entry of the study, in study order.
+
+    Each entry is composed with Hydra's compose API from the packaged configs (and the user's search
+    path): the entry's own choices (``task``, ``env_id``, ``kwargs``, ``max_steps``, ``arm``,
+    ``reward``, ``prior``, ``network``) over the command line's overrides, so an override such as
+    ``arm.links.0.mass=7`` reaches every study task. ``study.policies`` and ``study.episodes``, when
+    set, override N and M for every entry.
     """
     import dataclasses
 
-    from taskcomplexity.policies import NetworkSpec, PriorSpec
+    from omegaconf import open_dict
 
-    network, prior = sampler_from_config(cfg)
-    from taskcomplexity.rwg import RWGSettings
+    from taskcomplexity.pipeline.rwg_stage import RWGRequest
+    from taskcomplexity.rwg import RWGSettings, resolve_backend
 
+    study = study or study_from(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
-    overrides = {k: cfg.study.get(k) for k in ("policies", "episodes") if cfg.study.get(k) is not None}
+    overrides = {k: getattr(study, k) for k in ("policies", "episodes") if getattr(study, k) is not None}
     if overrides:
-        settings = dataclasses.replace(settings, **{k: int(v) for k, v in overrides.items()})
+        settings = dataclasses.replace(settings, **overrides)
         settings.validate()
+    typed = user_overrides()
     out = []
-    for i, (entry, task) in enumerate(zip(cfg.study.tasks, study_tasks(cfg), strict=True)):
-        entry_network, entry_prior = network, prior
-        for group, cls in (("network", NetworkSpec), ("prior", PriorSpec)):
-            if entry.get(group) is None:
-                continue
-            if not (CONF_DIR / group / f"{entry[group]}.yaml").exists():
-                allowed = sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
-                raise ConfigError(
-                    f"study.tasks[{i}].{group}={entry[group]} is not a known option (allowed: {', '.join(allowed)})"
-                )
-            spec = build(cls, _load_group(group, entry[group]), f"study.tasks[{i}].{group}")
-            if group == "network":
-                entry_network = spec
-            else:
-                entry_prior = spec
-        from taskcomplexity.pipeline.rwg_stage import RWGRequest
-
-        request = RWGRequest(task, entry_network, entry_prior, settings, str(cfg.backend))
-        out.append((str(entry.get("name") or task.task_id), request))
+    for i, entry in enumerate(study.tasks):
+        where = f"study.tasks[{i}]"
+        node = _compose(_entry_overrides(entry, typed, where), where)
+        with open_dict(node):
+            # What the entry does not choose comes from the study's own composed config (so values
+            # set there, by overrides or in code, reach every task).
+            node.backend, node.max_steps = cfg.backend, cfg.max_steps
+            for group in ("prior", "network"):
+                if group not in entry.selection:
+                    node[group] = cfg[group]
+            for key in ("env_id", "kwargs", "max_steps"):
+                if key in entry.selection:
+                    node.task[key] = entry.selection[key]
+        task = task_from_config(node)
+        network, prior = sampler_from_config(node)
+        out.append((entry, RWGRequest(task, network, prior, settings, resolve_backend(task, str(node.backend)))))
     return out
 
 

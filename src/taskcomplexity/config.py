@@ -20,7 +20,7 @@ from taskcomplexity.errors import ConfigError
 T = TypeVar("T")
 
 
-def _plain(node: Any) -> Any:
+def plain(node: Any) -> Any:
     try:
         from omegaconf import DictConfig, ListConfig, OmegaConf
     except ImportError:  # pragma: no cover
@@ -49,6 +49,10 @@ def _convert(value: Any, hint: Any, key: str) -> Any:
         if len(value) != len(args):
             raise ConfigError(f"{key} must be a list of {len(args)} values, got {value!r}")
         return tuple(_convert(v, a, f"{key}[{i}]") for i, (v, a) in enumerate(zip(value, args, strict=True)))
+    if origin in (Mapping, dict) or hint is dict:
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{key} must be a mapping, got {value!r}")
+        return dict(value)
     if hint is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"{key} must be a number, got {value!r}")
@@ -80,7 +84,7 @@ def build(cls: type[T], node: Any, key: str) -> T:
     key : str
         Dotted config path of ``node`` (e.g. ``"arm"``), used in messages.
     """
-    node = _plain(node)
+    node = plain(node)
     if isinstance(node, cls):
         return node
     if not isinstance(node, Mapping):
@@ -105,11 +109,36 @@ def build(cls: type[T], node: Any, key: str) -> T:
     return obj
 
 
-def task_from_config(cfg: Any):
-    """The :class:`~taskcomplexity.tasks.spec.TaskSpec` of a composed config (keys ``arm``, ``reward``)."""
-    from taskcomplexity.tasks.spec import ArmSpec, RewardSpec, TaskSpec
+TASK_KINDS = ("reaching", "gym")
 
-    arm = build(ArmSpec, cfg["arm"], "arm")
-    reward = build(RewardSpec, cfg["reward"], "reward")
-    max_steps = _plain(cfg).get("max_steps", 50) if isinstance(_plain(cfg), Mapping) else 50
-    return TaskSpec(arm=arm, reward=reward, max_steps=int(max_steps)).validate()
+
+def task_from_config(cfg: Any):
+    """The :class:`~taskcomplexity.tasks.base.Task` of a composed config.
+
+    ``task.kind`` chooses: ``reaching`` builds a :class:`~taskcomplexity.tasks.spec.TaskSpec` from
+    the ``arm`` and ``reward`` groups and ``max_steps``; ``gym`` a
+    :class:`~taskcomplexity.tasks.gym_task.GymTask` from ``task.env_id``, ``task.kwargs``,
+    ``task.max_steps`` and ``task.name``.
+    """
+    node = plain(cfg)
+    task_node = dict(node.get("task") or {"kind": "reaching"})
+    kind = task_node.pop("kind", "reaching")
+    if kind == "reaching":
+        from taskcomplexity.tasks.spec import ArmSpec, RewardSpec, TaskSpec
+
+        if task_node:
+            raise ConfigError(f"task.{sorted(task_node)[0]} is not a key of task=reaching (the arm and reward "
+                              "groups and max_steps compose the reaching tasks)")
+        arm = build(ArmSpec, node["arm"], "arm")
+        reward = build(RewardSpec, node["reward"], "reward")
+        max_steps = node.get("max_steps", 50)
+        if isinstance(max_steps, bool) or not isinstance(max_steps, int):
+            raise ConfigError(f"max_steps must be an integer >= 1, got {max_steps!r}")
+        return TaskSpec(arm=arm, reward=reward, max_steps=max_steps).validate()
+    if kind == "gym":
+        from taskcomplexity.tasks.gym_task import GymTask
+
+        if task_node.get("env_id") is None:
+            raise ConfigError("task.env_id is required with task=gym (a gymnasium id, e.g. task.env_id=Pendulum-v1)")
+        return build(GymTask, task_node, "task")
+    raise ConfigError(f"task.kind must be one of {list(TASK_KINDS)}, got {kind!r}")

@@ -12,6 +12,7 @@ import numpy as np
 
 WEIGHTS = 0x57  # stream labels
 EPISODES = 0x45
+RESETS = 0x52
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -57,6 +58,28 @@ def episode_uniforms(seed: int, policies: np.ndarray, episodes: np.ndarray, draw
     k = np.arange(draws, dtype=np.uint64)
     bits = _splitmix64(h[..., None] ^ (k * _MIX2))
     return (bits >> np.uint64(11)).astype(np.float64) * (1.0 / (1 << 53))
+
+
+def episode_reset_seeds(seed: int, policies: np.ndarray, episodes: np.ndarray) -> np.ndarray:
+    """The ``env.reset(seed=…)`` seed of episode e of policy n, for tasks that reset themselves.
+
+    A counter-based hash of (seed, n, e) on its own stream, so it depends on nothing else (chunk,
+    shard, backend, the order episodes run in).
+
+    Parameters
+    ----------
+    seed : int
+        Run seed.
+    policies, episodes : int arrays, broadcastable to a common shape S
+
+    Returns
+    -------
+    ndarray, shape S, int64 in [0, 2³¹): gymnasium accepts any non-negative int.
+    """
+    key = stream_key(seed, RESETS)
+    n, e = np.broadcast_arrays(np.asarray(policies, dtype=np.uint64), np.asarray(episodes, dtype=np.uint64))
+    bits = _splitmix64(_splitmix64(key ^ n) ^ (e * _MIX1))
+    return (bits >> np.uint64(33)).astype(np.int64)
 
 
 def policy_generator(seed: int, policy: int) -> np.random.Generator:

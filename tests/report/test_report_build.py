@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.metrics import RELATIONS, TASKS
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.pipeline.cache import Cache
 from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings, study_diagnostics
 from taskcomplexity.pipeline.metrics_stage import MetricsSettings
@@ -25,7 +25,11 @@ from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.report.verdict import ESTIMATOR_METRICS, RWG_METRICS, label
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
+
+PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
+RELATIONS, TASKS = PAPER.relations, PAPER.ids
 
 FIGURES = ("rwg_trios", "bootstrap", "score_scatter", "sac_curves", "diagnostics_bins", "diagnostics_null",
            "ablation_one_link_1m0_dense")
@@ -68,7 +72,7 @@ def report(study):
     root, results, diagnostics = study
     returns = load_returns(results[0].rwg)
     ablation = {results[0].task_id: {"normal prior": returns, "halved returns": returns / 2}}
-    index = build_report(results, diagnostics=diagnostics, sac_curves=synthetic_curves(TASKS),
+    index = build_report(results, study=PAPER, diagnostics=diagnostics, sac_curves=synthetic_curves(TASKS),
                          out_dir=root / "report", title="Smoke study", ablation=ablation)
     return index
 
@@ -174,7 +178,7 @@ def test_the_markdown_report_links_existing_figures(report):
 
 def test_without_sac_curves_or_diagnostics_the_page_says_so(study, tmp_path):
     _, results, _ = study
-    index = build_report(results[:2], diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Two tasks")
+    index = build_report(results[:2], study=PAPER, diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Two tasks")
     text = " ".join(parse(index).text)
     assert "SAC curves were not computed" in text
     assert "diagnostics" in text and "were not computed for this report" in text
@@ -187,7 +191,7 @@ def test_entries_that_are_not_task_ids_get_a_report_without_relations(study, tmp
     # An ablation study names its entries by sampler ("default", "U(-1, 1)"): no known relation applies.
     _, results, _ = study
     named = [replace(results[0], task_id="default"), replace(results[1], task_id="U(-1, 1)")]
-    index = build_report(named, diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Samplers")
+    index = build_report(named, study=PAPER, diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Samplers")
     text = " ".join(parse(index).text)
     assert "No known relation could be checked" in text
     assert "U(-1, 1)" in text

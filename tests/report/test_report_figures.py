@@ -7,8 +7,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.metrics import TASKS, policy_statistics
+from taskcomplexity.cli import CONF_DIR
+from taskcomplexity.metrics import policy_statistics
 from taskcomplexity.report import figures as fig
+from taskcomplexity.study import load_study_file
+
+TASKS = load_study_file(CONF_DIR / "study" / "paper.yaml").ids
 
 
 def test_a_task_keeps_its_colour_whichever_tasks_are_shown():

@@ -11,8 +11,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.metrics import RELATIONS, TASKS, known_relations
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.report import verdict as ver
+from taskcomplexity.study import load_study_file
+
+PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
+RELATIONS, TASKS = PAPER.relations, PAPER.ids
 
 # Known difficulty rank of each task (0 = easiest) consistent with every relation of environments.md.
 DIFFICULTY = {
@@ -42,7 +46,7 @@ def measures(metric: str, centre: dict[str, float], *, spread: float, draws: int
 
 def test_a_metric_that_falls_with_difficulty_agrees_with_every_relation():
     values, samples = measures("pic", {t: 10.0 - 2 * d for t, d in DIFFICULTY.items()}, spread=0.01)
-    table = ver.verdict_table(values, samples)
+    table = ver.verdict_table(values, samples, relations=RELATIONS)
     assert len(table) == len(RELATIONS)
     assert (table["outcome"] == "agree").all()
     assert (table["pvalue"] < 0.005).all()
@@ -50,14 +54,14 @@ def test_a_metric_that_falls_with_difficulty_agrees_with_every_relation():
 
 def test_a_metric_that_rises_with_difficulty_contradicts_every_relation():
     values, samples = measures("poic", {t: 1.0 + d for t, d in DIFFICULTY.items()}, spread=0.01)
-    table = ver.verdict_table(values, samples)
+    table = ver.verdict_table(values, samples, relations=RELATIONS)
     assert (table["outcome"] == "contradict").all()
 
 
 def test_differences_within_the_noise_are_not_significant():
     # sd 5 around means 1 apart, 5 samples each: Welch's p is far above 0.005 for every pair.
     values, samples = measures("score", {t: 1.0 - 0.1 * d for t, d in DIFFICULTY.items()}, spread=5.0)
-    table = ver.verdict_table(values, samples)
+    table = ver.verdict_table(values, samples, relations=RELATIONS)
     assert (table["outcome"] == "not significant").all()
     assert (table["pvalue"] >= 0.005).all()
 
@@ -65,7 +69,7 @@ def test_differences_within_the_noise_are_not_significant():
 def test_each_metric_is_tested_on_its_own_samples():
     pic_values, pic_samples = measures("pic", {t: 10.0 - 2 * d for t, d in DIFFICULTY.items()}, spread=0.01)
     poic_values, poic_samples = measures("poic", {t: 1.0 + d for t, d in DIFFICULTY.items()}, spread=50.0)
-    table = ver.verdict_table(pd.concat([pic_values, poic_values]), pd.concat([pic_samples, poic_samples]))
+    table = ver.verdict_table(pd.concat([pic_values, poic_values]), pd.concat([pic_samples, poic_samples]), relations=RELATIONS)
     outcomes = table.groupby("metric")["outcome"].unique()
     assert list(outcomes["pic"]) == ["agree"]
     assert list(outcomes["poic"]) == ["not significant"]
@@ -74,7 +78,7 @@ def test_each_metric_is_tested_on_its_own_samples():
 
 def test_a_single_seed_is_never_significant():
     values, samples = measures("sac_final", {t: 1.0 - 0.1 * d for t, d in DIFFICULTY.items()}, spread=0.0, draws=1)
-    table = ver.verdict_table(values, samples)
+    table = ver.verdict_table(values, samples, relations=RELATIONS)
     assert table["pvalue"].isna().all()
     assert (table["outcome"] == "not significant").all()
     assert table["agrees"].all()  # the direction is still reported
@@ -84,19 +88,19 @@ def test_a_relation_with_an_undefined_value_is_listed_as_undefined():
     centre = {t: 1.0 - 0.1 * d for t, d in DIFFICULTY.items()}
     centre["two_link-sparse"] = float("nan")  # e.g. score_R when every return is equal
     values, samples = measures("score", centre, spread=0.001)
-    table = ver.verdict_table(values, samples)
+    table = ver.verdict_table(values, samples, relations=RELATIONS)
     assert len(table) == len(RELATIONS)
     undefined = table[table["outcome"] == "undefined"]
     assert set(zip(undefined["easier"], undefined["harder"], strict=True)) == {
         (r.easier, r.harder) for r in RELATIONS if "two_link-sparse" in (r.easier, r.harder)
     }
-    summary = ver.summary_table(table, values)
+    summary = ver.summary_table(table, values, PAPER.orders)
     assert int(summary["undefined"].iloc[0]) == len(undefined)
 
 
 def test_metrics_keep_the_order_of_the_report_and_get_display_labels():
     frames = [measures(m, {t: -d for t, d in DIFFICULTY.items()}, spread=0.01) for m in ("sac_auc", "poic", "pic")]
-    table = ver.verdict_table(pd.concat([v for v, _ in frames]), pd.concat([s for _, s in frames]))
+    table = ver.verdict_table(pd.concat([v for v, _ in frames]), pd.concat([s for _, s in frames]), relations=RELATIONS)
     assert list(dict.fromkeys(table["metric"])) == ["pic", "poic", "sac_auc"]
     assert list(dict.fromkeys(table["label"])) == ["PIC", "POIC", "SAC AUC"]
 
@@ -109,7 +113,7 @@ def test_every_metric_reads_higher_as_easier_with_a_stated_family():
 
 def test_the_summary_counts_outcomes_and_gives_kendall_tau_per_reward_type():
     values, samples = measures("pic", {t: 10.0 - 2 * d for t, d in DIFFICULTY.items()}, spread=0.01)
-    summary = ver.summary_table(ver.verdict_table(values, samples), values)
+    summary = ver.summary_table(ver.verdict_table(values, samples, relations=RELATIONS), values, PAPER.orders)
     row = summary.iloc[0]
     assert (row["relations"], row["agreements"], row["contradictions"]) == (len(RELATIONS), len(RELATIONS), 0)
     assert row["kendall_tau_dense"] == pytest.approx(1.0)
@@ -123,7 +127,7 @@ def test_a_verdict_survives_only_when_every_estimator_reaches_it():
     rising = {t: 1.0 + d for t, d in DIFFICULTY.items()}
     rising["one_link_1m0-dense"] = 10.0  # only the relations with the 1-link L = 1.0 dense arm agree
     frames.append(measures("pic_minus_null", rising, spread=0.01, seed=9))
-    table = ver.verdict_table(pd.concat([v for v, _ in frames]), pd.concat([s for _, s in frames]))
+    table = ver.verdict_table(pd.concat([v for v, _ in frames]), pd.concat([s for _, s in frames]), relations=RELATIONS)
     survival = ver.survival_table(table)
     assert len(survival) == len(RELATIONS)
     assert list(survival.columns[3:]) == ["PIC", "PIC (Miller–Madow)", "PIC (k-NN)", "PIC − null", "survives"]
@@ -135,8 +139,8 @@ def test_the_headline_names_the_metric_that_agrees_and_the_one_that_contradicts(
     pic = measures("pic", {t: 1.0 + d for t, d in DIFFICULTY.items()}, spread=0.01)
     poic = measures("poic", {t: 10.0 - 2 * d for t, d in DIFFICULTY.items()}, spread=0.01, seed=1)
     values = pd.concat([pic[0], poic[0]])
-    table = ver.verdict_table(values, pd.concat([pic[1], poic[1]]))
-    sentences = ver.headline(table, ver.summary_table(table, values))
+    table = ver.verdict_table(values, pd.concat([pic[1], poic[1]]), relations=RELATIONS)
+    sentences = ver.headline(table, ver.summary_table(table, values, PAPER.orders))
     assert sentences[0].startswith(f"Against the {len(RELATIONS)} known complexity relations")
     assert "PIC agrees with 0 and contradicts 10" in sentences[0]
     assert "POIC agrees with 10 and contradicts 0" in sentences[0]
@@ -146,4 +150,4 @@ def test_the_headline_names_the_metric_that_agrees_and_the_one_that_contradicts(
 
 
 def test_known_relations_cover_the_seven_tasks():
-    assert known_relations(TASKS) == RELATIONS
+    assert PAPER.relations_among(TASKS) == RELATIONS

@@ -1,15 +1,14 @@
 """The verdict: does a complexity metric agree with the tasks' known relative difficulty?
 
-The known relations come from ``environments.md`` (§ Task family); ``metrics.md`` (§ The verdict)
-asks, for every metric and relation, whether the metric orders the two tasks correctly and whether
-the difference is significant, and per metric for the agreement counts and Kendall's τ against the
-known total orders within one reward type.
+The known relations and total orders are study data (:class:`taskcomplexity.study.Study`; the
+paper's are in ``conf/study/paper.yaml``). ``metrics.md`` (§ The verdict) asks, for every metric and
+relation, whether the metric orders the two tasks correctly and whether the difference is
+significant, and per metric for the agreement counts and Kendall's τ against each known total order.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -17,47 +16,7 @@ import scipy.stats
 
 from taskcomplexity.metrics._validation import check_fraction
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL, welch_test
-
-TASKS = (
-    "one_link_1m0-dense",
-    "one_link_1m0-sparse",
-    "one_link_1m65-dense",
-    "one_link_1m65-sparse",
-    "two_link-dense",
-    "two_link-sparse",
-    "two_link_obstacle-dense",
-)
-"""The seven task ids of ``environments.md``."""
-
-
-@dataclass(frozen=True)
-class Relation:
-    """A known difficulty relation: ``easier`` is easier than ``harder``, for the reason ``kind``."""
-
-    easier: str
-    harder: str
-    kind: str
-
-
-RELATIONS = (
-    Relation("one_link_1m0-dense", "one_link_1m65-dense", "link_length"),
-    Relation("one_link_1m0-sparse", "one_link_1m65-sparse", "link_length"),
-    Relation("one_link_1m65-dense", "two_link-dense", "degrees_of_freedom"),
-    Relation("one_link_1m0-dense", "two_link-dense", "degrees_of_freedom"),
-    Relation("one_link_1m65-sparse", "two_link-sparse", "degrees_of_freedom"),
-    Relation("one_link_1m0-sparse", "two_link-sparse", "degrees_of_freedom"),
-    Relation("one_link_1m0-dense", "one_link_1m0-sparse", "reward"),
-    Relation("one_link_1m65-dense", "one_link_1m65-sparse", "reward"),
-    Relation("two_link-dense", "two_link-sparse", "reward"),
-    Relation("two_link-dense", "two_link_obstacle-dense", "obstacle"),
-)
-"""Every known relation between the seven tasks (easier first)."""
-
-TOTAL_ORDERS = {
-    "dense": ("one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense", "two_link_obstacle-dense"),
-    "sparse": ("one_link_1m0-sparse", "one_link_1m65-sparse", "two_link-sparse"),
-}
-"""Per reward type, the tasks whose known order is total, easiest first."""
+from taskcomplexity.study import Relation
 
 OUTCOMES = ("agree", "contradict", "not significant")
 """Possible outcomes of one (metric, relation) verdict."""
@@ -79,12 +38,6 @@ VERDICT_COLUMNS = (
 """Columns of the table :func:`verdict` returns."""
 
 
-def known_relations(tasks: Iterable[str]) -> tuple[Relation, ...]:
-    """The known relations whose two tasks are both in ``tasks``, in the order of :data:`RELATIONS`."""
-    present = set(tasks)
-    return tuple(r for r in RELATIONS if r.easier in present and r.harder in present)
-
-
 def verdict(
     values: pd.DataFrame,
     *,
@@ -92,9 +45,9 @@ def verdict(
     samples: pd.DataFrame | None = None,
     pvalues: pd.DataFrame | None = None,
     alpha: float = SIGNIFICANCE_LEVEL,
-    relations: Iterable[Relation] | None = None,
+    relations: Iterable[Relation],
 ) -> pd.DataFrame:
-    """Check every metric against every known relation between the tasks present.
+    """Check every metric against every given relation between the tasks present.
 
     Parameters
     ----------
@@ -113,8 +66,8 @@ def verdict(
         significant and the p-value is NaN.
     alpha : float, default 0.005
         A difference is significant when ``p < alpha``.
-    relations : iterable of Relation, optional
-        Relations to check; default :func:`known_relations` of the tasks in ``values``.
+    relations : iterable of Relation
+        Relations to check (a study's); those whose tasks lack a value are skipped.
 
     Returns
     -------
@@ -137,8 +90,7 @@ def verdict(
         samples = _tidy(samples, "samples")
     if pvalues is not None:
         pvalues = _pvalue_lookup(pvalues)
-    if relations is None:
-        relations = known_relations(points["task"])
+    relations = tuple(relations)
 
     point = points.set_index(["metric", "task"])["value"]
     rows = []
@@ -172,7 +124,9 @@ def verdict(
     return pd.DataFrame(rows, columns=list(VERDICT_COLUMNS))
 
 
-def verdict_summary(verdict_table: pd.DataFrame, values: pd.DataFrame) -> pd.DataFrame:
+def verdict_summary(
+    verdict_table: pd.DataFrame, values: pd.DataFrame, orders: Mapping[str, Iterable[str]] | None = None
+) -> pd.DataFrame:
     """Per metric: agreements, contradictions, non-significant relations and Kendall's τ.
 
     Parameters
@@ -181,14 +135,16 @@ def verdict_summary(verdict_table: pd.DataFrame, values: pd.DataFrame) -> pd.Dat
         Output of :func:`verdict` (its ``higher_is_easier`` column orients τ).
     values : pandas.DataFrame
         The point estimates given to :func:`verdict` (columns ``task``, ``metric``, ``value``).
+    orders : mapping of str to sequence of task ids, optional
+        Named known total orders, easiest first (a study's ``orders``).
 
     Returns
     -------
     pandas.DataFrame, one row per metric of ``verdict_table``
         ``metric``, ``relations``, ``agreements``, ``contradictions``, ``not_significant`` and, for
-        each reward type of :data:`TOTAL_ORDERS`, ``kendall_tau_<type>``: Kendall's τ-b between the
-        known difficulty order and the difficulty the metric implies, over the tasks present (NaN
-        with fewer than 2). τ = +1 means the metric orders those tasks exactly as known, -1 exactly
+        each order of ``orders``, ``kendall_tau_<name>``: Kendall's τ-b between the known
+        difficulty order and the difficulty the metric implies, over the tasks present (NaN with
+        fewer than 2). τ = +1 means the metric orders those tasks exactly as known, -1 exactly
         reversed.
     """
     points = _tidy(values, "values").set_index(["metric", "task"])["value"]
@@ -202,14 +158,14 @@ def verdict_summary(verdict_table: pd.DataFrame, values: pd.DataFrame) -> pd.Dat
             "contradictions": int((table["outcome"] == "contradict").sum()),
             "not_significant": int((table["outcome"] == "not significant").sum()),
         }
-        for reward, order in TOTAL_ORDERS.items():
+        for name, order in (orders or {}).items():
             tasks = [task for task in order if (metric, task) in points.index]
             tau = float("nan")
             if len(tasks) >= 2:
                 known = np.arange(len(tasks))
                 implied = np.array([points[(metric, task)] for task in tasks], dtype=np.float64)
                 tau = float(scipy.stats.kendalltau(known, -implied if direction else implied).statistic)
-            row[f"kendall_tau_{reward}"] = tau
+            row[f"kendall_tau_{name}"] = tau
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -12,6 +12,7 @@ from taskcomplexity.cli import (
     metrics_settings_from_config,
     one_line_errors,
     run_name,
+    study_from,
     study_requests,
 )
 from taskcomplexity.config import build
@@ -40,7 +41,9 @@ def run_study(cfg: Any) -> Path:
     from taskcomplexity.report.build import build_report
 
     started = time.time()
-    names, requests = zip(*study_requests(cfg), strict=True)
+    study = study_from(cfg)
+    entries, requests = zip(*study_requests(cfg, study), strict=True)
+    names = [entry.id for entry in entries]
     settings = metrics_settings_from_config(cfg)
     cache = cache_from_config(cfg)
     results = study_metrics(cache, list(requests), settings, names=list(names), force=bool(cfg.force), progress=True)
@@ -55,16 +58,17 @@ def run_study(cfg: Any) -> Path:
         progress=True,
     )
     ablation = None
-    if any(r.task_id != r.request.task.task_id for r in results):
-        ablation = {f"{results[0].request.task.task_id}: prior and network variants": {r.task_id: r for r in results}}
+    if study.kind == "variants":
+        ablation = {f"{results[0].request.task.task_id}: prior and network variants":
+                    {study.label(r.task_id): r for r in results}}
         sac = None
     else:
         sac = _sac_curves(cfg, cache, results)
     out_dir = Path(cfg.paths.outputs) / "reports" / name
     title = cfg.report.get("title") or f"How hard is each reaching task? ({name})"
     index = build_report(
-        results, diagnostics=diagnostics, sac_curves=sac, out_dir=out_dir, title=title, ablation=ablation,
-        alpha=settings.alpha,
+        results, study=study, diagnostics=diagnostics, sac_curves=sac, out_dir=out_dir, title=title,
+        ablation=ablation, alpha=settings.alpha,
     )
     elapsed = time.time() - started
     log.info("study %s done in %.0f s", name, elapsed)

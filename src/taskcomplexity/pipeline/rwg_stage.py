@@ -24,7 +24,7 @@ from taskcomplexity.pipeline.cache import Artefact, Cache
 from taskcomplexity.pipeline.keys import canonical, stage_key
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
-from taskcomplexity.tasks.spec import TaskSpec
+from taskcomplexity.tasks.base import Task
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +37,7 @@ RETURNS = "returns.parquet"
 class RWGRequest:
     """Everything that determines a return matrix (plus how to split the work)."""
 
-    task: TaskSpec
+    task: Task
     network: NetworkSpec
     prior: PriorSpec
     settings: RWGSettings
@@ -50,7 +50,7 @@ class RWGRequest:
         backend), so the other tasks' keys do not depend on it.
         """
         identity = {
-            "task": canonical(self.task),
+            "task": self.task.identity(),
             "network": canonical(self.network),
             "prior": canonical(self.prior),
             "policies": self.settings.policies,
@@ -65,7 +65,9 @@ class RWGRequest:
     @property
     def models_contacts(self) -> bool:
         """Whether the obstacle's contacts come from the batched contact model rather than PyBullet."""
-        return self.task.arm.obstacle is not None and self.backend == "batched" and self.settings.contacts == "model"
+        arm = getattr(self.task, "arm", None)
+        return arm is not None and arm.obstacle is not None and self.backend == "batched" \
+            and self.settings.contacts == "model"
 
     @property
     def key(self) -> str:

@@ -12,7 +12,7 @@ from taskcomplexity import metrics as est
 from taskcomplexity.pipeline.cache import Artefact, Cache
 from taskcomplexity.pipeline.metrics_stage import MetricsSettings, run_metrics_stage
 from taskcomplexity.pipeline.rwg_stage import RWGRequest, run_rwg_stage
-from taskcomplexity.report.tables import table1, task_sort_key, write_table
+from taskcomplexity.report.tables import table1, write_table
 
 log = logging.getLogger(__name__)
 
@@ -39,18 +39,13 @@ def study_metrics(
     force: bool = False,
     progress: bool = False,
 ) -> list[TaskMetrics]:
-    """Compute or reuse the RWG and metrics artefacts of every task, in table order.
+    """Compute or reuse the RWG and metrics artefacts of every task, in the order given.
 
-    ``names`` labels the entries (default: their task ids); entries with non-task names keep
-    their order.
+    ``names`` are the entries' ids (default: their task ids).
     """
     names = names or [r.task.task_id for r in requests]
     results = []
-    def position(i: int):
-        return task_sort_key(names[i]) if names[i] == requests[i].task.task_id else (98, i, "")
-
-    order = sorted(range(len(requests)), key=position)
-    for i in order:
+    for i in range(len(requests)):
         request = requests[i]
         rwg, rwg_hit = run_rwg_stage(cache, request, force=force, progress=progress)
         metrics, hit = run_metrics_stage(cache, rwg, settings, label=request.label, force=force, progress=progress)

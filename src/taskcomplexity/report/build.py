@@ -26,7 +26,6 @@ import pandas as pd
 
 from taskcomplexity import metrics as est
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
-from taskcomplexity.metrics.verdict import RELATIONS
 from taskcomplexity.pipeline.cache import Artefact
 from taskcomplexity.pipeline.rwg_stage import load_returns
 from taskcomplexity.pipeline.study import TaskMetrics, metrics_frame
@@ -223,7 +222,7 @@ def welch_display(data: StudyData, metric: str, *, alpha: float) -> tuple[pd.Dat
     return matrix.reset_index(), tests
 
 
-def verdict_matrix(verdict: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+def verdict_matrix(verdict: pd.DataFrame, relations) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Relations × metrics of outcome symbols, and the tooltip text of every cell.
 
     Returns
@@ -232,7 +231,7 @@ def verdict_matrix(verdict: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
         ``Known relation``, ``Kind`` and one column per metric label with ✓ (agree), ✗ (contradict),
         – (not significant) or ? (undefined); ``titles`` holds "value vs value, p = …" per cell.
     """
-    relations = [r for r in RELATIONS if ((verdict["easier"] == r.easier) & (verdict["harder"] == r.harder)).any()]
+    relations = [r for r in relations if ((verdict["easier"] == r.easier) & (verdict["harder"] == r.harder)).any()]
     metrics = list(dict.fromkeys(verdict["metric"]))
     indexed = verdict.set_index(["metric", "easier", "harder"])
     rows, tips = [], []
@@ -355,7 +354,7 @@ def survival_display(survival: pd.DataFrame) -> pd.DataFrame:
 
 
 def study_verdict(
-    data: StudyData, sac_seeds: pd.DataFrame | None, *, alpha: float
+    data: StudyData, sac_seeds: pd.DataFrame | None, study, *, alpha: float
 ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """(verdict table, per-metric summary, tidy values) of every metric family present."""
     values = [ver.rwg_values(data.metrics)]
@@ -369,8 +368,8 @@ def study_verdict(
         samples.append(sac_samples)
     values = pd.concat(values, ignore_index=True)
     samples = pd.concat(samples, ignore_index=True)
-    table = ver.verdict_table(values, samples, alpha=alpha)
-    return table, ver.summary_table(table, values), values
+    table = ver.verdict_table(values, samples, alpha=alpha, relations=study.relations_among(data.tasks))
+    return table, ver.summary_table(table, values, study.orders), values
 
 
 # Methods ---------------------------------------------------------------------------------------
@@ -680,6 +679,7 @@ def _remove_earlier_build(writer: _Writer) -> None:
 def build_report(
     results: list[TaskMetrics],
     *,
+    study,
     diagnostics: dict[str, Artefact] | None,
     sac_curves: pd.DataFrame | None,
     out_dir: Path,
@@ -693,6 +693,8 @@ def build_report(
     ----------
     results : list of TaskMetrics
         Every task's RWG and metrics artefacts (:func:`~taskcomplexity.pipeline.study.study_metrics`).
+    study : taskcomplexity.study.Study
+        The study: its relations and orders are what the verdict judges.
     diagnostics : dict of task id to Artefact, optional
         Diagnostics artefacts (:mod:`~taskcomplexity.pipeline.diagnostics_stage`); None leaves the
         diagnostics section and the other estimators out of the verdict.
@@ -729,10 +731,10 @@ def build_report(
         writer.tables.mkdir(parents=True, exist_ok=True)
         per_seed.to_csv(writer.tables / "sac_per_seed.csv", index=False)
 
-    verdict, summary, values = study_verdict(data, per_seed, alpha=alpha)
+    verdict, summary, values = study_verdict(data, per_seed, study, alpha=alpha)
     survival = ver.survival_table(verdict)
     sentences = ver.headline(verdict, summary, alpha=alpha)
-    matrix, tips = verdict_matrix(verdict)
+    matrix, tips = verdict_matrix(verdict, study.relations)
     words = matrix.replace({mark: outcome for outcome, mark in SYMBOLS.items()})
     headline_blocks = (
         writer.table(matrix, "verdict_matrix", "Verdict by known relation.",

@@ -43,7 +43,7 @@ import pandas as pd
 
 from taskcomplexity import metrics as est
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL, welch_test
-from taskcomplexity.metrics.verdict import Relation, known_relations
+from taskcomplexity.metrics.verdict import Relation
 from taskcomplexity.report.tables import ARM_LABELS, split_task_id
 
 
@@ -219,7 +219,7 @@ def verdict_table(
     samples: pd.DataFrame,
     *,
     alpha: float = SIGNIFICANCE_LEVEL,
-    relations: Iterable[Relation] | None = None,
+    relations: Iterable[Relation],
 ) -> pd.DataFrame:
     """Every (metric, known relation) with its outcome: agree, contradict or not significant.
 
@@ -235,8 +235,8 @@ def verdict_table(
         "not significant" (untested, never assumed significant).
     alpha : float, default 0.005
         A difference is significant when p < alpha.
-    relations : iterable of Relation, optional
-        Default: the known relations of ``environments.md`` between the tasks present.
+    relations : iterable of Relation
+        The study's known relations (those whose tasks lack values are skipped).
 
     Returns
     -------
@@ -245,7 +245,7 @@ def verdict_table(
         ``samples_easier`` and ``samples_harder`` (sizes of the tested samples), in the metric
         order of :data:`METRICS`.
     """
-    relations = tuple(relations) if relations is not None else known_relations(values["task"])
+    relations = tuple(relations)
     finite = np.isfinite(values["value"].to_numpy(dtype=np.float64))
     undefined = set(zip(values.loc[~finite, "metric"], values.loc[~finite, "task"], strict=True))
     values = values[finite]
@@ -327,7 +327,7 @@ def _with_undefined(
     return merged.iloc[sorted(range(len(merged)), key=keys.__getitem__)].reset_index(drop=True)
 
 
-def summary_table(verdict: pd.DataFrame, values: pd.DataFrame) -> pd.DataFrame:
+def summary_table(verdict: pd.DataFrame, values: pd.DataFrame, orders=None) -> pd.DataFrame:
     """Per metric: relations judged, agreements, contradictions, not significant, Kendall's τ.
 
     See :func:`taskcomplexity.metrics.verdict_summary`; adds ``label``, ``family`` and ``undefined``
@@ -338,7 +338,7 @@ def summary_table(verdict: pd.DataFrame, values: pd.DataFrame) -> pd.DataFrame:
                    "undefined"]
         return pd.DataFrame(columns=columns)
     finite = np.isfinite(values["value"].to_numpy(dtype=np.float64))
-    summary = est.verdict_summary(verdict, values[finite & values["metric"].isin(set(verdict["metric"]))])
+    summary = est.verdict_summary(verdict, values[finite & values["metric"].isin(set(verdict["metric"]))], orders)
     undefined = verdict[verdict["outcome"] == "undefined"].groupby("metric").size()
     summary["undefined"] = summary["metric"].map(undefined).fillna(0).astype(int)
     summary.insert(1, "label", summary["metric"].map(label))

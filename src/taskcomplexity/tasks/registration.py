@@ -9,17 +9,10 @@ from taskcomplexity.tasks.spec import STUDY_TASKS
 ENTRY_POINT = "taskcomplexity.tasks.pybullet_env:ReachingEnv"
 MAX_EPISODE_STEPS = 50
 
-_ARM_IDS = {
-    "one_link_1m0": "OneLink1m0",
-    "one_link_1m65": "OneLink1m65",
-    "two_link": "TwoLink",
-    "two_link_obstacle": "TwoLinkObstacle",
-}
-
-
 def gym_id(arm: str, reward: str) -> str:
-    """``('two_link', 'sparse')`` → ``'taskcomplexity/TwoLink-Sparse-v0'``."""
-    return f"taskcomplexity/{_ARM_IDS[arm]}-{reward.capitalize()}-v0"
+    """``('two_link', 'sparse')`` → ``'taskcomplexity/TwoLink-Sparse-v0'`` (any arm name: CamelCase of its parts)."""
+    camel = "".join(part[:1].upper() + part[1:] for part in arm.split("_"))
+    return f"taskcomplexity/{camel}-{reward.capitalize()}-v0"
 
 
 GYM_IDS: dict[tuple[str, str], str] = {(arm, reward): gym_id(arm, reward) for arm, reward in STUDY_TASKS}

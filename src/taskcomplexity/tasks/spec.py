@@ -230,6 +230,48 @@ class TaskSpec:
     def action_size(self) -> int:
         return self.arm.dof
 
+    # -- the Task seam (taskcomplexity.tasks.base.Task) ------------------------------------------
+    @property
+    def env_id(self) -> str:
+        """The gymnasium id of the preset this task is made from, e.g. ``taskcomplexity/TwoLink-Sparse-v0``."""
+        from taskcomplexity.tasks.registration import gym_id
+
+        return gym_id(self.arm.name, self.reward.kind)
+
+    @property
+    def observation_space(self):
+        import numpy as np
+        from gymnasium import spaces
+
+        return spaces.Box(-np.inf, np.inf, (self.observation_size,), dtype=np.float64)
+
+    @property
+    def action_space(self):
+        import numpy as np
+        from gymnasium import spaces
+
+        return spaces.Box(-1.0, 1.0, (self.action_size,), dtype=np.float64)
+
+    @property
+    def backends(self) -> tuple[str, ...]:
+        """``batched`` (the numba kernel, exact), ``pybullet`` (the reference), ``gym`` (the reference
+        env stepped through the generic backend, reset by seed)."""
+        return ("batched", "pybullet", "gym")
+
+    def make_env(self, **kwargs):
+        """The PyBullet reference env with a ``max_steps`` time limit."""
+        import gymnasium
+
+        from taskcomplexity.tasks.pybullet_env import ReachingEnv
+
+        return gymnasium.wrappers.TimeLimit(ReachingEnv(task=self, **kwargs), max_episode_steps=self.max_steps)
+
+    def identity(self) -> dict:
+        """Every field of the arm, the reward and the episode length (the cache keys of the arms)."""
+        from taskcomplexity.pipeline.keys import canonical
+
+        return canonical(self)
+
     def validate(self) -> TaskSpec:
         self.arm.validate()
         self.reward.validate()

@@ -16,12 +16,27 @@ import torch
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec, sample_policies, select_policy
+from taskcomplexity.rwg.gym_backend import ENVIRONMENTS_IN_FLIGHT, GymRollout
 from taskcomplexity.seeding import episode_uniforms
 from taskcomplexity.tasks import mechanics
+from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.dynamics import CONTACT_MODES
 from taskcomplexity.tasks.spec import TaskSpec
 
-BACKENDS = ("batched", "pybullet")
+BACKENDS = ("batched", "pybullet", "gym")
+"""Every RWG backend; a task lists those it supports in ``task.backends`` (fastest exact one first)."""
+AUTO = "auto"
+"""``backend=auto``: the task's first backend."""
+
+
+def resolve_backend(task: Task, backend: str) -> str:
+    """``auto`` → the task's fastest exact backend; refuse a backend the task does not have."""
+    if backend == AUTO:
+        return task.backends[0]
+    if backend not in task.backends:
+        raise ConfigError(f"backend={backend} is not available for task {task.task_id} "
+                          f"(allowed: {', '.join([AUTO, *task.backends])})")
+    return backend
 CONTACTS = tuple(CONTACT_MODES)
 
 
@@ -138,19 +153,21 @@ def initial_states(task: TaskSpec, seed: int, policies: np.ndarray, episodes: in
     return mechanics.initial_state(task.arm, episode_uniforms(seed, n, e))
 
 
-def chunk_size(task: TaskSpec, network: NetworkSpec, settings: RWGSettings, backend: str) -> int:
+def chunk_size(task: Task, network: NetworkSpec, settings: RWGSettings, backend: str) -> int:
     """Policies per chunk."""
     if settings.chunk_policies:
         return settings.chunk_policies
     if backend == "pybullet":
         return 16
+    if backend == "gym":
+        return max(1, ENVIRONMENTS_IN_FLIGHT // min(settings.episodes, ENVIRONMENTS_IN_FLIGHT))
     width = max(network.hidden) + task.observation_size + 4 * task.action_size + 16
     per_env = 8 * 4 * width  # float64, activations and temporaries
     envs = settings.chunk_memory_mb * 2**20 // per_env
     return max(1, min(envs // settings.episodes, 2048))
 
 
-def chunks(task: TaskSpec, network: NetworkSpec, settings: RWGSettings, backend: str) -> list[tuple[int, int]]:
+def chunks(task: Task, network: NetworkSpec, settings: RWGSettings, backend: str) -> list[tuple[int, int]]:
     """The [start, stop) policy ranges of this shard's chunks."""
     start, stop = settings.shard_range()
     size = chunk_size(task, network, settings, backend)
@@ -158,7 +175,7 @@ def chunks(task: TaskSpec, network: NetworkSpec, settings: RWGSettings, backend:
 
 
 def simulate_chunk(
-    task: TaskSpec,
+    task: Task,
     network: NetworkSpec,
     prior: PriorSpec,
     settings: RWGSettings,
@@ -167,12 +184,20 @@ def simulate_chunk(
     backend: str = "batched",
     *,
     progress: bool = False,
+    rollout: GymRollout | None = None,
 ) -> ReturnChunk:
-    """Run every episode of policies ``start … stop−1`` (``progress``: a bar over obstacle hand-overs)."""
-    if backend not in BACKENDS:
-        raise ConfigError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    """Run every episode of policies ``start … stop−1`` (``progress``: a bar over obstacle hand-overs).
+
+    ``rollout`` is the environment pool of the ``gym`` backend (made here, and closed, when None).
+    """
+    backend = resolve_backend(task, backend)
     indices = np.arange(start, stop)
     policies = sample_policies(network, prior, task.observation_size, task.action_size, settings.seed, indices)
+    if backend == "gym":
+        if rollout is not None:
+            return ReturnChunk(policies.indices.copy(), *rollout.run(policies, settings.seed, settings.episodes))
+        with GymRollout(task) as own:
+            return ReturnChunk(policies.indices.copy(), *own.run(policies, settings.seed, settings.episodes))
     joint_angles, target = initial_states(task, settings.seed, indices, settings.episodes)
     if backend == "batched":
         return _simulate_batched(task, policies, joint_angles, target, settings.contacts, progress)
@@ -294,7 +319,7 @@ def _simulate_pybullet(task, policies: PolicyBatch, joint_angles, target) -> Ret
 
 
 def run_rwg(
-    task: TaskSpec,
+    task: Task,
     network: NetworkSpec,
     prior: PriorSpec,
     settings: RWGSettings,
@@ -316,21 +341,25 @@ def run_rwg(
         Show a tqdm bar over environment episodes.
     """
     settings.validate()
+    backend = resolve_backend(task, backend)
     completed = dict(completed or {})
     ranges = chunks(task, network, settings, backend)
     from tqdm.auto import tqdm
 
     total = sum(b - a for a, b in ranges) * settings.episodes
     bar = tqdm(total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", disable=not progress, smoothing=0.1)
+    rollout = GymRollout(task) if backend == "gym" else None
     try:
         for key in ranges:
             if key not in completed:
                 completed[key] = simulate_chunk(
-                    task, network, prior, settings, *key, backend=backend, progress=progress
+                    task, network, prior, settings, *key, backend=backend, progress=progress, rollout=rollout
                 )
                 if on_chunk is not None:
                     on_chunk(key, completed[key])
             bar.update((key[1] - key[0]) * settings.episodes)
     finally:
         bar.close()
+        if rollout is not None:
+            rollout.close()
     return ReturnChunk.concatenate([completed[k] for k in ranges])

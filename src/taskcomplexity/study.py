@@ -1,0 +1,245 @@
+"""A study as data: its tasks (with display labels, groups, colours and SAC budgets), the known
+complexity relations between them, optional total orders and reference scores.
+
+Studies live in ``conf/study/*.yaml`` (or a researcher's own directory on Hydra's search path); the
+verdict judges the study's relations, the report takes its labels, table order and colours from
+here. Nothing about a particular task is hard-coded elsewhere.
+
+Example::
+
+    name: mine
+    tasks:
+      - {id: pend, task: gym, env_id: Pendulum-v1, label: "Pendulum"}
+      - {id: cart, task: cartpole}
+    relations:
+      - {easier: cart, harder: pend, kind: "swing-up"}
+    orders: {}            # optional: name -> list of ids, easiest first (Kendall's tau)
+    reference: {}         # optional: id -> a reference score (higher = easier; Pearson/Spearman r)
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from taskcomplexity.errors import ConfigError
+
+SELECTION_KEYS = ("task", "env_id", "kwargs", "max_steps", "arm", "reward", "prior", "network")
+"""Keys of a study task entry that choose what is simulated (config groups and task fields)."""
+DISPLAY_KEYS = ("id", "label", "group", "color", "sac_steps", "solved_return")
+"""Keys of a study task entry that describe it (never change the returns)."""
+KINDS = ("tasks", "variants")
+
+
+@dataclass(frozen=True)
+class Relation:
+    """A known difficulty relation: ``easier`` is easier than ``harder``, for the reason ``kind``."""
+
+    easier: str
+    harder: str
+    kind: str
+
+
+@dataclass(frozen=True)
+class StudyTask:
+    """One entry of ``study.tasks``.
+
+    Attributes
+    ----------
+    id : str
+        The name relations, orders, tables and figure files use.
+    label : str
+        Display name (tables, figures).
+    group : str or None
+        Optional grouping of the tables' rows (e.g. the reward type of the paper's Table 1).
+    color : str or None
+        Matplotlib colour of the task in every figure (None: the study palette by position).
+    sac_steps : int or None
+        SAC budget, environment steps per seed (None: ``sac.total_steps`` must be set).
+    solved_return : float or None
+        An episode whose return reaches this counts as solved (for envs whose info reports no success).
+    selection : dict
+        The entry's selection keys (:data:`SELECTION_KEYS`) as given.
+    """
+
+    id: str
+    label: str
+    group: str | None = None
+    color: str | None = None
+    sac_steps: int | None = None
+    solved_return: float | None = None
+    selection: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A study: tasks, known relations, total orders and reference scores.
+
+    Attributes
+    ----------
+    name : str
+        Directory name of its tables and report (with the run tag).
+    tasks : tuple of StudyTask
+        In table order.
+    relations : tuple of Relation
+        Known relations the verdict judges (may be empty).
+    orders : mapping of str to tuple of str
+        Named total orders of task ids, easiest first (Kendall's τ per order).
+    reference : mapping of str to float
+        Optional reference scores per task id, higher = easier.
+    kind : {'tasks', 'variants'}
+        ``variants``: the entries are prior/network variants of one task (an ablation), compared by
+        their return distributions rather than judged by relations.
+    policies, episodes : int or None
+        N and M for every entry (None: ``rwg.policies`` / ``rwg.episodes``).
+    """
+
+    name: str
+    tasks: tuple[StudyTask, ...]
+    relations: tuple[Relation, ...] = ()
+    orders: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    reference: Mapping[str, float] = field(default_factory=dict)
+    kind: str = "tasks"
+    policies: int | None = None
+    episodes: int | None = None
+
+    @property
+    def ids(self) -> tuple[str, ...]:
+        return tuple(t.id for t in self.tasks)
+
+    def task(self, task_id: str) -> StudyTask:
+        for entry in self.tasks:
+            if entry.id == task_id:
+                return entry
+        raise KeyError(task_id)
+
+    def label(self, task_id: str) -> str:
+        """Display label of a task id (the id itself when the study does not list it)."""
+        try:
+            return self.task(task_id).label
+        except KeyError:
+            return task_id
+
+    def relations_among(self, ids) -> tuple[Relation, ...]:
+        """The relations whose two tasks are both in ``ids``, in study order."""
+        present = set(ids)
+        return tuple(r for r in self.relations if r.easier in present and r.harder in present)
+
+
+def study_from_config(node: Any) -> Study:
+    """Build and check a :class:`Study` from its config node (``cfg.study``)."""
+    node = _plain(node)
+    if not isinstance(node, Mapping):
+        raise ConfigError(f"study must be a mapping (name, tasks, relations, …), got {node!r}")
+    allowed = {"name", "tasks", "relations", "orders", "reference", "kind", "policies", "episodes"}
+    unknown = sorted(set(node) - allowed)
+    if unknown:
+        raise ConfigError(f"study.{unknown[0]} is not a known key (allowed: {', '.join(sorted(allowed))})")
+    name = node.get("name")
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9_.\-]+", name):
+        raise ConfigError(f"study.name must be a name of letters, digits, '_', '.', '-', got {name!r}")
+    kind = node.get("kind") or "tasks"
+    if kind not in KINDS:
+        raise ConfigError(f"study.kind must be one of {list(KINDS)}, got {kind!r}")
+    entries = node.get("tasks") or []
+    if not isinstance(entries, list) or not entries:
+        raise ConfigError(f"study.tasks must be a non-empty list of task entries, got {entries!r}")
+    tasks = tuple(_task_entry(entry, i) for i, entry in enumerate(entries))
+    ids = [t.id for t in tasks]
+    for i, task_id in enumerate(ids):
+        if task_id in ids[:i]:
+            raise ConfigError(f"study.tasks[{i}].id={task_id} is used twice (give each entry its own id)")
+    relations = tuple(_relation(r, i, ids) for i, r in enumerate(node.get("relations") or []))
+    orders = {}
+    for order_name, order in (node.get("orders") or {}).items():
+        if not isinstance(order, list) or len(order) < 2:
+            raise ConfigError(f"study.orders.{order_name} must be a list of at least 2 task ids, got {order!r}")
+        for task_id in order:
+            _known(f"study.orders.{order_name}", task_id, ids)
+        orders[str(order_name)] = tuple(order)
+    reference = {}
+    for task_id, score in (node.get("reference") or {}).items():
+        _known("study.reference", task_id, ids)
+        if isinstance(score, bool) or not isinstance(score, (int, float)):
+            raise ConfigError(f"study.reference.{task_id} must be a number, got {score!r}")
+        reference[str(task_id)] = float(score)
+    counts = {}
+    for key in ("policies", "episodes"):
+        value = node.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 2):
+            raise ConfigError(f"study.{key} must be an integer >= 2 or null, got {value!r}")
+        counts[key] = value
+    return Study(name=name, tasks=tasks, relations=relations, orders=orders, reference=reference, kind=kind,
+                 **counts)
+
+
+def load_study_file(path) -> Study:
+    """A study YAML file (e.g. ``conf/study/paper.yaml``) as a :class:`Study`."""
+    from omegaconf import OmegaConf
+
+    return study_from_config(OmegaConf.load(path))
+
+
+def _task_entry(entry: Any, i: int) -> StudyTask:
+    where = f"study.tasks[{i}]"
+    if not isinstance(entry, Mapping):
+        raise ConfigError(f"{where} must be a mapping (e.g. {{task: cartpole}}), got {entry!r}")
+    unknown = sorted(set(entry) - set(SELECTION_KEYS) - set(DISPLAY_KEYS))
+    if unknown:
+        raise ConfigError(f"{where}.{unknown[0]} is not a known key "
+                          f"(allowed: {', '.join(sorted(SELECTION_KEYS + DISPLAY_KEYS))})")
+    selection = {k: entry[k] for k in SELECTION_KEYS if entry.get(k) is not None}
+    if "task" not in selection and "arm" not in selection and "env_id" not in selection:
+        raise ConfigError(f"{where} must choose a task: task (a conf/task preset), env_id, or arm and reward")
+    task_id = entry.get("id") or default_id(selection)
+    if not isinstance(task_id, str) or not re.fullmatch(r"[A-Za-z0-9_.:\-]+", task_id):
+        raise ConfigError(f"{where}.id must be a name of letters, digits, '_', '.', ':', '-', got {task_id!r}")
+    sac_steps = entry.get("sac_steps")
+    if sac_steps is not None and (isinstance(sac_steps, bool) or not isinstance(sac_steps, int) or sac_steps < 1):
+        raise ConfigError(f"{where}.sac_steps must be an integer >= 1 or null, got {sac_steps!r}")
+    solved = entry.get("solved_return")
+    if solved is not None and (isinstance(solved, bool) or not isinstance(solved, (int, float))):
+        raise ConfigError(f"{where}.solved_return must be a number or null, got {solved!r}")
+    return StudyTask(
+        id=task_id,
+        label=str(entry.get("label") or task_id),
+        group=None if entry.get("group") is None else str(entry["group"]),
+        color=None if entry.get("color") is None else str(entry["color"]),
+        sac_steps=sac_steps,
+        solved_return=None if solved is None else float(solved),
+        selection=selection,
+    )
+
+
+def default_id(selection: Mapping[str, Any]) -> str:
+    """The id of an entry without one: ``<arm>-<reward>``, the env id, or the task preset's name."""
+    if "arm" in selection:
+        return f"{selection['arm']}-{selection.get('reward', 'dense')}"
+    if "env_id" in selection:
+        return str(selection["env_id"]).rpartition(":")[2]
+    return str(selection["task"])
+
+
+def _relation(node: Any, i: int, ids: list[str]) -> Relation:
+    where = f"study.relations[{i}]"
+    keys = set(node) if isinstance(node, Mapping) else set()
+    if not isinstance(node, Mapping) or keys - {"easier", "harder", "kind"} or not {"easier", "harder"} <= keys:
+        raise ConfigError(f"{where} must be {{easier: <id>, harder: <id>, kind: <reason>}}, got {node!r}")
+    _known(f"{where}.easier", node["easier"], ids)
+    _known(f"{where}.harder", node["harder"], ids)
+    if node["easier"] == node["harder"]:
+        raise ConfigError(f"{where} relates task {node['easier']} to itself")
+    return Relation(str(node["easier"]), str(node["harder"]), str(node.get("kind") or "known"))
+
+
+def _known(where: str, task_id: Any, ids: list[str]) -> None:
+    if task_id not in ids:
+        raise ConfigError(f"{where}={task_id} is not a task of the study (its ids: {', '.join(ids)})")
+
+
+def _plain(node: Any) -> Any:
+    from taskcomplexity.config import plain
+
+    return plain(node)

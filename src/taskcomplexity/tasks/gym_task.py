@@ -1,0 +1,152 @@
+"""Any registered gymnasium id as a :class:`~taskcomplexity.tasks.base.Task`.
+
+``GymTask("Pendulum-v1")`` measures gymnasium's pendulum; ``GymTask("mypkg.envs:Maze-v0")`` imports
+``mypkg.envs`` (which registers ``Maze-v0`` with gymnasium) and measures a researcher's own env, with no
+change to this package.
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import importlib
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium
+
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.tasks.base import check_space, flat_size
+
+MUJOCO_EXTRA = "pip install -e '.[mujoco]'"
+
+
+@dataclass(frozen=True, eq=True)
+class GymTask:
+    """A task made by ``gymnasium.make(env_id, **kwargs)``.
+
+    Attributes
+    ----------
+    env_id : str
+        A registered gymnasium id, or ``"module:Id"`` (gymnasium imports ``module`` first).
+    kwargs : mapping
+        Keyword arguments of the environment's constructor.
+    max_steps : int or None
+        Episode length limit, environment steps; None = the limit the id was registered with (resolved
+        when the task is made, so both spellings of the same limit are the same task).
+    name : str or None
+        The task id in tables and logs; None = the env id without its module prefix.
+    """
+
+    env_id: str
+    kwargs: Mapping[str, Any] = field(default_factory=dict)
+    max_steps: int | None = None
+    name: str | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.env_id, str) or not self.env_id:
+            raise ConfigError(f"task.env_id must be a gymnasium id (e.g. Pendulum-v1), got {self.env_id!r}")
+        if self.max_steps is None:
+            limit = self.spec.max_episode_steps
+            if limit is None:
+                raise ConfigError(f"task.max_steps must be set for task.env_id={self.env_id} "
+                                  "(it registers no time limit)")
+            object.__setattr__(self, "max_steps", int(limit))
+        elif self.max_steps < 1:
+            raise ConfigError(f"task.max_steps must be an integer >= 1 or null (the env's own limit), "
+                              f"got {self.max_steps}")
+
+    # -- identity ----------------------------------------------------------------------------
+    @property
+    def task_id(self) -> str:
+        if self.name:
+            return self.name
+        return re.sub(r"[^A-Za-z0-9_.\-]+", "_", self.env_id.rpartition(":")[2])
+
+    @property
+    def backends(self) -> tuple[str, ...]:
+        return ("gym",)
+
+    def identity(self) -> dict:
+        """The env id, its constructor arguments and the resolved episode limit (not the display name)."""
+        return {"env_id": self.env_id, "kwargs": dict(sorted(self.kwargs.items())), "max_steps": self.max_steps}
+
+    # -- what the env is ---------------------------------------------------------------------
+    @functools.cached_property
+    def spec(self) -> gymnasium.envs.registration.EnvSpec:
+        """The registered spec (imports the id's module first; clear errors for unknown ids)."""
+        return _find_spec(self.env_id)
+
+    @functools.cached_property
+    def _spaces(self) -> tuple[gymnasium.Space, gymnasium.Space]:
+        env = self.make_env()
+        try:
+            return env.observation_space, env.action_space
+        finally:
+            env.close()
+
+    @property
+    def observation_space(self) -> gymnasium.Space:
+        return self._spaces[0]
+
+    @property
+    def action_space(self) -> gymnasium.Space:
+        return self._spaces[1]
+
+    @property
+    def observation_size(self) -> int:
+        return flat_size(self.observation_space)
+
+    @property
+    def action_size(self) -> int:
+        return flat_size(self.action_space)
+
+    def make_env(self, **kwargs: Any) -> gymnasium.Env:
+        """``gymnasium.make`` with the task's arguments and episode limit (no env checker)."""
+        arguments = {**self.kwargs, **kwargs}
+        try:
+            return gymnasium.make(self.env_id if ":" not in self.env_id else self.spec.id,
+                                  max_episode_steps=self.max_steps, disable_env_checker=True, **arguments)
+        except gymnasium.error.DependencyNotInstalled as err:
+            raise ConfigError(_dependency_message(self.env_id, err)) from err
+        except TypeError as err:
+            if "argument" not in str(err):
+                raise
+            raise ConfigError(f"task.kwargs={dict(self.kwargs)} are not accepted by {self.env_id}: {err}") from err
+
+    def validate(self) -> GymTask:
+        """Check both spaces (the id and the episode limit are checked when the task is made); return self."""
+        check_space(self.observation_space, "observation", f"task.env_id={self.env_id}")
+        check_space(self.action_space, "action", f"task.env_id={self.env_id}")
+        return self
+
+
+def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
+    module, _, name = env_id.rpartition(":")
+    if module:
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as err:
+            raise ConfigError(f"task.env_id={env_id}: cannot import module {module!r} ({err})") from err
+    else:
+        name = env_id
+    if name not in gymnasium.registry:
+        close = difflib.get_close_matches(name, list(gymnasium.registry), n=3, cutoff=0.5)
+        hint = f" (closest registered: {', '.join(close)})" if close else ""
+        raise ConfigError(f"task.env_id={env_id} is not a registered gymnasium id{hint}")
+    spec = gymnasium.spec(name)
+    entry = spec.entry_point if isinstance(spec.entry_point, str) else ""
+    if "mujoco" in entry:
+        try:
+            importlib.import_module("mujoco")
+        except ImportError as err:
+            raise ConfigError(f"task.env_id={env_id} needs MuJoCo, which is not installed: {MUJOCO_EXTRA}") from err
+    return spec
+
+
+def _dependency_message(env_id: str, err: Exception) -> str:
+    if "mujoco" in str(err).lower():
+        return f"task.env_id={env_id} needs MuJoCo, which is not installed: {MUJOCO_EXTRA}"
+    return f"task.env_id={env_id} needs a package that is not installed: {err}"

@@ -1,0 +1,164 @@
+"""Any gymnasium id as a task: the Task seam, GymTask, and the generic RWG backend against the env itself."""
+
+from __future__ import annotations
+
+import sys
+import textwrap
+
+import gymnasium
+import numpy as np
+import pytest
+import torch
+from gymnasium import spaces
+
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies, select_policy
+from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
+from taskcomplexity.seeding import episode_reset_seeds
+from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
+from taskcomplexity.tasks.gym_task import GymTask
+from taskcomplexity.tasks.spec import make_task
+
+CLASSIC = {  # id -> (observation size, policy outputs, registered time limit)
+    "CartPole-v1": (4, 2, 500),
+    "Pendulum-v1": (3, 1, 200),
+    "MountainCar-v0": (2, 3, 200),
+    "MountainCarContinuous-v0": (2, 1, 999),
+    "Acrobot-v1": (6, 3, 500),
+}
+
+
+@pytest.mark.parametrize("env_id", sorted(CLASSIC))
+def test_a_gym_task_reads_its_spaces_and_time_limit_from_the_registered_env(env_id):
+    task = GymTask(env_id).validate()
+    assert isinstance(task, Task)
+    assert (task.observation_size, task.action_size, task.max_steps) == CLASSIC[env_id]
+    assert task.task_id == env_id and task.backends == ("gym",)
+    assert GymTask(env_id, max_steps=CLASSIC[env_id][2]).identity() == task.identity()  # null = the env's own
+    assert GymTask(env_id, max_steps=7).identity() != task.identity()
+
+
+def test_the_reaching_arms_implement_the_same_seam():
+    task = make_task("two_link", "sparse")
+    assert isinstance(task, Task)
+    assert task.env_id == "taskcomplexity/TwoLink-Sparse-v0" and task.backends[0] == "batched"
+    assert (task.observation_space.shape, task.action_space.shape) == ((10,), (2,))
+    env = task.make_env()
+    try:
+        obs, _ = env.reset(seed=0)
+        assert obs.shape == (10,)
+    finally:
+        env.close()
+
+
+def test_an_unknown_id_names_the_closest_registered_ones():
+    with pytest.raises(ConfigError, match=r"task.env_id=Pendulm-v1 is not a registered gymnasium id \(closest "
+                                          r"registered: Pendulum-v1"):
+        GymTask("Pendulm-v1")
+
+
+def test_a_module_prefixed_id_imports_the_researchers_package(tmp_path, monkeypatch):
+    package = tmp_path / "my_lab_envs"
+    package.mkdir()
+    (package / "__init__.py").write_text(textwrap.dedent("""
+        import gymnasium
+        import numpy as np
+        from gymnasium import spaces
+
+        class Drift(gymnasium.Env):
+            observation_space = spaces.Box(-10.0, 10.0, (1,), dtype=np.float64)
+            action_space = spaces.Box(-0.5, 0.5, (1,), dtype=np.float64)
+
+            def reset(self, *, seed=None, options=None):
+                super().reset(seed=seed)
+                self.x = self.np_random.uniform(-1, 1, 1)
+                return self.x.copy(), {}
+
+            def step(self, action):
+                self.x = self.x + action
+                return self.x.copy(), -float(abs(self.x[0])), bool(abs(self.x[0]) < 0.05), False, {}
+
+        gymnasium.register("MyLabDrift-v0", entry_point=Drift, max_episode_steps=20)
+    """))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    task = GymTask("my_lab_envs:MyLabDrift-v0").validate()
+    assert (task.task_id, task.max_steps, task.observation_size, task.action_size) == ("MyLabDrift-v0", 20, 1, 1)
+    chunk = run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=4, episodes=3), backend="auto")
+    assert chunk.returns.shape == (4, 3) and np.all(chunk.returns <= 0) and np.all(chunk.steps <= 20)
+    sys.modules.pop("my_lab_envs", None)
+
+
+def test_missing_module_ids_without_a_time_limit_and_unsupported_spaces_are_refused():
+    with pytest.raises(ConfigError, match="cannot import module 'no_such_lab_module'"):
+        GymTask("no_such_lab_module:Env-v0")
+
+    class DictObservation(gymnasium.Env):
+        observation_space = spaces.Dict({"x": spaces.Box(-1, 1, (1,))})
+        action_space = spaces.Discrete(2)
+
+        def reset(self, *, seed=None, options=None):
+            return {"x": np.zeros(1, dtype=np.float32)}, {}
+
+        def step(self, action):
+            return {"x": np.zeros(1, dtype=np.float32)}, 0.0, True, False, {}
+
+    gymnasium.register("TestDictObservation-v0", entry_point=DictObservation)
+    try:
+        with pytest.raises(ConfigError, match="task.max_steps must be set for task.env_id=TestDictObservation-v0"):
+            GymTask("TestDictObservation-v0")
+        with pytest.raises(ConfigError, match=r"the observation space Dict\(.*\) is not supported \(allowed: Box, "
+                                              r"Discrete\)"):
+            GymTask("TestDictObservation-v0", max_steps=5).validate()
+    finally:
+        del gymnasium.registry["TestDictObservation-v0"]
+
+
+def test_actions_fill_the_box_bounds_and_discrete_actions_are_the_argmax():
+    box = spaces.Box(np.array([-2.0, 0.0], dtype=np.float32), np.array([2.0, 1.0], dtype=np.float32))
+    actions = decode_actions(box, np.array([[-1.0, 1.0], [0.0, 0.0]]))
+    np.testing.assert_allclose(actions, [[-2.0, 1.0], [0.0, 0.5]])
+    assert actions.dtype == np.float32
+    discrete = spaces.Discrete(3, start=-1)
+    np.testing.assert_array_equal(decode_actions(discrete, np.array([[0.1, 0.9, -1.0], [0.5, 0.0, 0.6]])), [0, 1])
+    np.testing.assert_array_equal(encode_observations(spaces.Discrete(3), np.array([2, 0])), [[0, 0, 1], [1, 0, 0]])
+
+
+def test_backends_a_task_lacks_are_refused():
+    with pytest.raises(ConfigError, match=r"backend=batched is not available for task Pendulum-v1 \(allowed: auto, "
+                                          r"gym\)"):
+        resolve_backend(GymTask("Pendulum-v1"), "batched")
+    assert resolve_backend(make_task("two_link"), "auto") == "batched"
+
+
+def reference_return(task: GymTask, network, prior, seed: int, policy: int, episode: int) -> tuple[float, int]:
+    """One episode stepped by hand on ``gymnasium.make``: the generic backend must give exactly this."""
+    one = select_policy(sample_policies(network, prior, task.observation_size, task.action_size, seed,
+                                        np.array([policy])), 0)
+    env = gymnasium.make(task.env_id)
+    obs, _ = env.reset(seed=int(episode_reset_seeds(seed, policy, episode)))
+    total, steps = 0.0, 0
+    while True:
+        x = torch.from_numpy(encode_observations(task.observation_space, np.asarray(obs)[None]))
+        action = decode_actions(task.action_space, one.act(x.view(1, 1, -1))[0].numpy())[0]
+        obs, reward, terminated, truncated, _ = env.step(action)
+        total += float(reward)
+        steps += 1
+        if terminated or truncated:
+            env.close()
+            return total, steps
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0"])
+def test_the_generic_backend_matches_the_env_stepped_by_hand_in_any_chunking(env_id):
+    task = GymTask(env_id)
+    network, prior = NetworkSpec(), PriorSpec()
+    settings = RWGSettings(policies=6, episodes=3, seed=4)
+    whole = run_rwg(task, network, prior, settings, backend="gym")
+    split = run_rwg(task, network, prior, RWGSettings(policies=6, episodes=3, seed=4, chunk_policies=4), backend="gym")
+    np.testing.assert_array_equal(whole.returns, split.returns)
+    np.testing.assert_array_equal(whole.steps, split.steps)
+    for n, e in [(0, 0), (5, 2), (3, 1)]:
+        expected, steps = reference_return(task, network, prior, 4, n, e)
+        assert whole.returns[n, e] == expected and whole.steps[n, e] == steps
+    if env_id == "CartPole-v1":  # +1 per step: the return counts the steps
+        np.testing.assert_array_equal(whole.returns, whole.steps)
