@@ -30,8 +30,26 @@ def fail(message: str) -> None:
     raise SystemExit(EXIT_BAD_INPUT)
 
 
+def search_dirs(argv: list[str], conf_dir: Path = CONF_DIR) -> list[Path]:
+    """The packaged config directory and every ``file://`` directory of a ``hydra.searchpath`` override."""
+    dirs = [conf_dir]
+    for arg in argv[1:]:
+        name, _, value = arg.partition("=")
+        if name.lstrip("+~") == "hydra.searchpath":
+            for item in value.strip("[]").split(","):
+                item = item.strip().strip("'\"")
+                if item.startswith("file://"):
+                    dirs.append(Path(item[len("file://"):]))
+    return dirs
+
+
 def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
-    """Refuse ``group=option`` overrides whose option file does not exist, naming the allowed ones."""
+    """Refuse ``group=option`` overrides whose option file does not exist, naming the allowed ones.
+
+    Options are looked up in the packaged configs and in the directories a ``hydra.searchpath``
+    override adds (a researcher's own studies and task presets).
+    """
+    dirs = search_dirs(argv, conf_dir)
     for arg in argv[1:]:
         if arg.startswith("-") or "=" not in arg:
             continue
@@ -46,7 +64,7 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
                 fail(str(err))
         if name not in GROUPS or not (conf_dir / name).is_dir():
             continue
-        allowed = sorted(p.stem for p in (conf_dir / name).glob("*.yaml"))
+        allowed = sorted({p.stem for d in dirs for p in (d / name).glob("*.yaml")})
         for option in value.split(","):
             if option in ("", "null") and name == "experiment":
                 continue
@@ -85,10 +103,29 @@ def rwg_request_from_config(cfg: Any, task=None):
 
     if str(cfg.backend) not in (AUTO, *BACKENDS):
         raise ConfigError(f"backend must be one of {[AUTO, *BACKENDS]}, got {cfg.backend!r}")
-    task = task or task_from_config(cfg)
+    if task is None:
+        task = task_from_config(cfg)
+        refuse_unread_overrides(task, user_overrides())
     network, prior = sampler_from_config(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
     return RWGRequest(task, network, prior, settings, resolve_backend(task, str(cfg.backend)))
+
+
+REACHING_ONLY = ("arm", "reward", "max_steps", "rwg.contacts")
+"""Keys only the reaching arms read."""
+
+
+def refuse_unread_overrides(task, typed: list[str]) -> None:
+    """Refuse an override that the composed task would ignore (e.g. ``arm=…`` with ``task=gym``)."""
+    from taskcomplexity.tasks.spec import TaskSpec
+
+    if isinstance(task, TaskSpec):
+        return
+    for override in typed:
+        key = override.partition("=")[0].lstrip("+~")
+        if any(key == k or key.startswith(f"{k}.") for k in REACHING_ONLY):
+            raise ConfigError(f"{override} is not read by task {task.task_id} (only the reaching arms read "
+                              f"{', '.join(REACHING_ONLY)}; use task.max_steps or task.kwargs for a gymnasium task)")
 
 
 def metrics_settings_from_config(cfg: Any):

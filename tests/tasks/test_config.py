@@ -10,6 +10,7 @@ import yaml
 
 from taskcomplexity.config import build, task_from_config
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.tasks.spec import ARMS, REWARDS, ArmSpec, RewardSpec, make_task
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
@@ -71,3 +72,84 @@ def test_presets_are_frozen_dataclasses():
     arm = ARMS["two_link"]
     with pytest.raises(dataclasses.FrozenInstanceError):
         arm.time_step = 1.0  # type: ignore[misc]
+
+
+TASK_PRESETS = sorted(p.stem for p in (CONF / "task").glob("*.yaml") if p.stem not in ("gym", "reaching"))
+STUDIES = sorted(p.stem for p in (CONF / "study").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("preset", TASK_PRESETS)
+def test_every_task_preset_composes_into_a_gymnasium_task(compose_config, preset):
+    from taskcomplexity.tasks.gym_task import GymTask
+
+    cfg = compose_config(f"task={preset}")
+    task = task_from_config(cfg)
+    assert isinstance(task, GymTask) and task.env_id == cfg.task.env_id
+    assert task.max_steps >= 1 and task.observation_size >= 1 and task.action_size >= 1
+
+
+def test_a_gym_task_needs_its_id_and_refuses_reaching_keys(compose_config):
+    with pytest.raises(ConfigError, match=r"task\.env_id is required with task=gym"):
+        task_from_config(compose_config("task=gym"))
+    task = task_from_config(compose_config("task=gym", "task.env_id=Pendulum-v1", "task.max_steps=60"))
+    assert (task.task_id, task.max_steps) == ("Pendulum-v1", 60)
+    from taskcomplexity.cli import refuse_unread_overrides
+
+    with pytest.raises(ConfigError, match=r"arm=two_link is not read by task Pendulum-v1"):
+        refuse_unread_overrides(task, ["arm=two_link"])
+    with pytest.raises(ConfigError, match=r"max_steps=20 is not read by task Pendulum-v1"):
+        refuse_unread_overrides(task, ["max_steps=20"])
+    refuse_unread_overrides(task, ["task.max_steps=20", "rwg.policies=5"])  # keys a gym task reads
+
+
+@pytest.mark.parametrize("study", STUDIES)
+def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compose_config, study):
+    from taskcomplexity.cli import study_from, study_requests
+
+    cfg = compose_config(f"study={study}", "experiment=smoke")
+    loaded = study_from(cfg)
+    pairs = study_requests(cfg, loaded)
+    assert [entry.id for entry, _ in pairs] == list(loaded.ids)
+    for entry, request in pairs:
+        assert request.backend == request.task.backends[0]  # backend=auto: the task's fastest
+        for group, cls in (("prior", PriorSpec), ("network", NetworkSpec)):
+            chosen = entry.selection.get(group, {"prior": "normal", "network": "mlp32"}[group])
+            expected = build(cls, yaml.safe_load((CONF / group / f"{chosen}.yaml").read_text()), group)
+            assert getattr(request, group) == expected
+    for relation in loaded.relations:
+        assert {relation.easier, relation.harder} <= set(loaded.ids)
+    assert len({request.key for _, request in pairs}) == len(pairs)  # every entry is a different computation
+
+
+@pytest.mark.parametrize(
+    ("study", "message"),
+    [
+        ({"name": "s", "tasks": [{"task": "cartpole"}], "relations": [{"easier": "cartpole", "harder": "pend"}]},
+         r"study\.relations\[0\]\.harder=pend is not a task of the study \(its ids: cartpole\)"),
+        ({"name": "s", "tasks": [{"task": "cartpole"}, {"task": "cartpole"}]},
+         r"study\.tasks\[1\]\.id=cartpole is used twice"),
+        ({"name": "s", "tasks": [{"label": "no task"}]}, r"study\.tasks\[0\] must choose a task"),
+        ({"name": "s", "tasks": [{"task": "cartpole", "colour": "red"}]}, r"study\.tasks\[0\]\.colour is not a known key"),
+        ({"name": "s", "tasks": [{"task": "cartpole"}], "reference": {"acrobot": 1.0}},
+         r"study\.reference=acrobot is not a task of the study"),
+        ({"name": "s", "tasks": [{"task": "cartpole"}], "orders": {"all": ["cartpole", "x"]}},
+         r"study\.orders\.all=x is not a task of the study"),
+    ],
+)
+def test_bad_studies_are_refused_in_one_line_naming_the_key(study, message):
+    from taskcomplexity.study import study_from_config
+
+    with pytest.raises(ConfigError, match=message) as err:
+        study_from_config(study)
+    assert "\n" not in str(err.value)
+
+
+def test_a_study_entry_that_chooses_its_own_arm_refuses_the_same_override_on_the_command_line():
+    from taskcomplexity.cli import _entry_overrides
+    from taskcomplexity.study import study_from_config
+
+    entry = study_from_config({"name": "s", "tasks": [{"arm": "two_link", "reward": "dense"}]}).tasks[0]
+    assert _entry_overrides(entry, ["arm.links.0.mass=7"], "study.tasks[0]") == [
+        "arm.links.0.mass=7", "arm=two_link", "reward=dense"]
+    with pytest.raises(ConfigError, match=r"arm=one_link_1m0 conflicts with study\.tasks\[0\] \(two_link-dense\)"):
+        _entry_overrides(entry, ["arm=one_link_1m0"], "study.tasks[0]")
