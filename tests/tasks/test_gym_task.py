@@ -162,3 +162,15 @@ def test_the_generic_backend_matches_the_env_stepped_by_hand_in_any_chunking(env
         assert whole.returns[n, e] == expected and whole.steps[n, e] == steps
     if env_id == "CartPole-v1":  # +1 per step: the return counts the steps
         np.testing.assert_array_equal(whole.returns, whole.steps)
+
+
+def test_a_mujoco_id_needs_the_mujoco_extra_or_runs_with_it():
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        with pytest.raises(ConfigError, match=r"task\.env_id=Ant-v5 needs MuJoCo, which is not installed: "
+                                              r"pip install -e '\.\[mujoco\]'"):
+            GymTask("Ant-v5")
+        return
+    task = GymTask("Ant-v5").validate()
+    assert task.action_size == 8 and task.max_steps == 1000
