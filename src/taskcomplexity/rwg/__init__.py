@@ -230,9 +230,7 @@ def _simulate_batched(
 
 
 def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress: bool = False) -> None:
-    """Continue handed-over episodes on the PyBullet reference, from the state where they stopped.
-
-    """
+    """Continue handed-over episodes on the PyBullet reference, from the state where they stopped."""
     n_ep = handoff.shape[1]
     jobs = []
     for p, e in zip(*np.nonzero(handoff), strict=True):
@@ -252,30 +250,23 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, p
         )
     from tqdm.auto import tqdm
 
-    _init_reference(task)
+    from taskcomplexity.tasks.pybullet_env import ReachingEnv
+
+    reference = ReachingEnv(task=task)
     try:
         bar = tqdm(jobs, desc="obstacle contacts on pybullet", unit="ep", disable=not progress, leave=False)
-        outcomes = [_continue_episode(job) for job in bar]
+        outcomes = [_continue_episode(reference, job) for job in bar]
     finally:
-        _REFERENCE.pop("env").close()
+        reference.close()
     for (p, e, *_), (ret, n, ok) in zip(jobs, outcomes, strict=True):
         returns[p, e] += ret
         steps[p, e] += n
         success[p, e] |= ok
 
 
-_REFERENCE = {}
-
-
-def _init_reference(task) -> None:
-    from taskcomplexity.tasks.pybullet_env import ReachingEnv
-
-    _REFERENCE["env"] = ReachingEnv(task=task)
-
-
-def _continue_episode(job) -> tuple[float, int, bool]:
+def _continue_episode(env, job) -> tuple[float, int, bool]:
+    """Finish one handed-over episode on the reference ``env`` from the state where it stopped."""
     _, _, weights, biases, joint_angles, joint_velocities, target, max_steps = job
-    env = _REFERENCE["env"]
     policy = PolicyBatch(
         weights=[torch.from_numpy(w) for w in weights],
         biases=None if biases is None else [torch.from_numpy(b) for b in biases],

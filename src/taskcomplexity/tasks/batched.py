@@ -40,6 +40,7 @@ class BatchedReaching:
     def __init__(self, task: TaskSpec, size: int, contacts: str = "pybullet"):
         self.task = task.validate()
         self.size = size
+        step_kernel.prepare_kernels()
         dof = task.arm.dof
         self._dynamics = ArmDynamics(read_arm_urdf(urdf_path(task.arm))).vector()
         self._zone = contact_zone(task, contacts)

@@ -28,9 +28,6 @@ import numpy as np
 from taskcomplexity.tasks import contact
 from taskcomplexity.tasks.urdf import LinkDynamics
 
-# numba's own thread pool does not spin between kernels (torch's OpenMP pool runs in between).
-numba.config.THREADING_LAYER = "workqueue"
-
 LINK_DAMPING = 0.04  # btMultiBody default m_linearDamping = m_angularDamping
 MAX_COORDINATE_VELOCITY = 100.0  # btMultiBody default m_maxCoordinateVelocity, rad/s
 

@@ -56,7 +56,16 @@ def drop_stale_kernels(directory: Path | None = None) -> bool:
     return True
 
 
-drop_stale_kernels()
+def prepare_kernels() -> None:
+    """Call before the first kernel of a process runs: drop stale cached kernels, choose numba's threads.
+
+    numba reads its threading layer when its first parallel kernel starts; ``workqueue`` does not spin
+    between kernels, so torch's and NumPy's threads get the cores in between. Both are decided here,
+    where the kernels are used, never at import.
+    """
+    drop_stale_kernels()
+    numba.config.THREADING_LAYER = "workqueue"
+
 
 # layout of the task vector
 DOF, ROUND, L1, L2, THRESHOLD, SPARSE, SCALE1, SCALE2 = range(8)
