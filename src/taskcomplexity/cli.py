@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -75,15 +76,20 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
 
 
 def one_line_errors(fn):
-    """Turn the library's errors (and bad config values) into one line and exit status 2."""
+    """Entry points only: the project's input errors become one line and exit status 2.
+
+    Only :class:`~taskcomplexity.errors.TaskComplexityError` (bad config values, unknown ids, damaged
+    artefacts) is shortened; anything else is a bug and keeps its traceback (exit status 1).
+    ``HYDRA_FULL_ERROR=1`` shows the traceback of input errors too.
+    """
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         try:
             return fn(*args, **kwargs)
-        except (TaskComplexityError, ConfigError) as err:
-            fail(str(err))
-        except ValueError as err:  # estimator input validation (e.g. non-finite returns)
+        except TaskComplexityError as err:
+            if os.environ.get("HYDRA_FULL_ERROR") == "1":
+                raise
             fail(str(err))
 
     return wrapper

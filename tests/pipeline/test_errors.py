@@ -1,0 +1,51 @@
+"""Errors keep their cause: bad input is one line and exit 2; a bug is a traceback and exit 1."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+# Runs pipelines/rwg.py as `python pipelines/rwg.py …` would, after injecting a NumPy shape bug into the
+# RWG stage's table writer (a genuine bug, not bad input).
+INJECTED = textwrap.dedent("""
+    import runpy, sys
+    import numpy as np
+    import taskcomplexity.pipeline.rwg_stage as stage
+
+    def broken(chunk):
+        return np.ones(3) + np.ones(4)
+
+    stage.returns_frame = broken
+    sys.argv = [{script!r}, *sys.argv[1:]]
+    runpy.run_path({script!r}, run_name="__main__")
+""")
+
+
+def run(args: list[str], tmp_path: Path, *, code: str | None = None, env: dict | None = None):
+    script = str(ROOT / "pipelines" / "rwg.py")
+    command = [sys.executable, "-c", code.format(script=script), *args] if code else [sys.executable, script, *args]
+    environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"} | (env or {})
+    return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300, env=environment)
+
+
+def test_a_shape_bug_in_a_stage_keeps_its_traceback_and_exits_1(tmp_path):
+    done = run(["task=cartpole", "rwg.policies=2", "rwg.episodes=2", f"paths.outputs={tmp_path}"], tmp_path,
+               code=INJECTED)
+    assert done.returncode == 1
+    assert "Traceback" in done.stderr and "operands could not be broadcast together" in done.stderr
+    assert "error: operands" not in done.stderr
+
+
+def test_bad_input_is_one_line_and_exit_2_unless_hydra_full_error_asks_for_the_traceback(tmp_path):
+    args = ["task=gym", "task.env_id=Pendulm-v1", f"paths.outputs={tmp_path}"]
+    short = run(args, tmp_path)
+    assert short.returncode == 2
+    lines = [line for line in short.stderr.splitlines() if line.strip()]
+    assert lines == [lines[0]] and lines[0].startswith("error: task.env_id=Pendulm-v1 is not a registered")
+    full = run(args, tmp_path, env={"HYDRA_FULL_ERROR": "1"})
+    assert full.returncode == 1 and "Traceback" in full.stderr and "ConfigError" in full.stderr
