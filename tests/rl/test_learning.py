@@ -47,7 +47,7 @@ def test_sac_ends_clearly_above_the_random_policy_on_one_link_dense_within_the_q
     final = curve[curve["env_step"] == curve["env_step"].max()].set_index("seed")["eval/return_mean"]
     print(
         f"\nrandom actions: mean return {random_mean:.2f} ± {random_se:.2f} (SE, {RANDOM_EPISODES} episodes); "
-        f"SAC after {settings.steps_for(task)} steps: {final.round(2).to_dict()} (deterministic, "
+        f"SAC after {settings.total_steps} steps: {final.round(2).to_dict()} (deterministic, "
         f"{settings.eval_episodes} episodes per seed)"
     )
     # "Clearly above": every seed beats the random mean by at least 5 of its standard errors and by at

@@ -2,33 +2,66 @@
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import pytest
 
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.rl import PAPER_BUDGETS, SACSettings, protocol_variants
+from taskcomplexity.rl import SACSettings, protocol_variants, with_budget
+from taskcomplexity.study import study_from_config
+from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
 SAC_OPTIONS = sorted(p.stem for p in (CONF / "sac").glob("*.yaml"))
+# shared/spec/sac.md § Protocol: environment steps per seed.
+SPEC_BUDGETS = {
+    "one_link_1m0-dense": 50_000,
+    "one_link_1m0-sparse": 50_000,
+    "one_link_1m65-dense": 50_000,
+    "one_link_1m65-sparse": 50_000,
+    "two_link-dense": 100_000,
+    "two_link-sparse": 200_000,
+    "two_link_obstacle-dense": 200_000,
+}
 
 
 @pytest.mark.parametrize("option", SAC_OPTIONS)
 def test_every_sac_option_composes_into_valid_settings_with_a_budget_for_every_study_task(compose_config, option):
-    settings = build(SACSettings, compose_config(f"sac={option}").sac, "sac")
-    for arm, reward in STUDY_TASKS:
-        steps = settings.steps_for(make_task(arm, reward))
+    cfg = compose_config(f"sac={option}")
+    settings = build(SACSettings, cfg.sac, "sac")
+    study = study_from_config(cfg.study)
+    for entry in study.tasks:
+        steps = with_budget(settings, entry.sac_steps, task_id=entry.id).total_steps
         assert steps > settings.warmup_steps, "updates must happen within every budget"
         assert steps % settings.collect_steps == 0
+
+
+def test_the_paper_study_holds_the_reference_budgets_and_the_sac_options_none(compose_config):
+    study = study_from_config(compose_config("study=paper").study)
+    assert {entry.id: entry.sac_steps for entry in study.tasks} == SPEC_BUDGETS
+    for option in SAC_OPTIONS:
+        assert "budgets" not in compose_config(f"sac={option}").sac, option
+
+
+def test_a_run_budget_is_total_steps_when_set_else_the_study_entry():
+    assert with_budget(SACSettings(), 200_000, task_id="two_link-sparse").total_steps == 200_000
+    assert with_budget(SACSettings(total_steps=300), 200_000, task_id="two_link-sparse").total_steps == 300
+    assert with_budget(SACSettings(total_steps=300), None, task_id="pend").total_steps == 300
+
+
+def test_a_task_without_a_budget_is_refused_naming_sac_total_steps():
+    with pytest.raises(ConfigError, match=r"no SAC budget for task pend: set sac\.total_steps") as err:
+        with_budget(SACSettings(), None, task_id="pend")
+    assert "\n" not in str(err.value)
+    with pytest.raises(ConfigError, match=r"study\.tasks\[pend\]\.sac_steps must be a multiple of sac\.collect_steps"):
+        with_budget(SACSettings(), 1234, task_id="pend")
 
 
 def test_default_and_paper_options_are_the_published_protocol(compose_config):
     for option in ("default", "paper"):
         settings = build(SACSettings, compose_config(f"sac={option}").sac, "sac")
-        assert settings.budgets == PAPER_BUDGETS
         assert settings.total_steps is None
         assert settings.seeds == (0, 1, 2, 3, 4)
         assert (settings.eval_every, settings.eval_episodes) == (1000, 10)
@@ -63,7 +96,7 @@ def test_smoke_makes_gradient_updates_within_a_few_hundred_steps(compose_config)
         ("sac.loss_function=huber", r"sac\.loss_function must be one of \['l2', 'l1', 'smooth_l1'\]"),
         ("sac.seeds=[0,0]", r"sac\.seeds must be a non-empty list of distinct integers >= 0, got \[0, 0\]"),
         ("sac.eval_every=1005", r"sac\.eval_every must be a multiple of sac\.collect_steps=10, got 1005"),
-        ("sac.budgets.two_link-dense=-5", r"sac\.budgets\.two_link-dense must be an integer >= 1, got -5"),
+        ("sac.total_steps=-5", r"sac\.total_steps must be an integer >= 1, got -5"),
         ("sac.total_steps=1234", r"sac\.total_steps must be a multiple of sac\.collect_steps=10, got 1234"),
         ("sac.hidden_sizes=[256,0]", r"sac\.hidden_sizes must be a non-empty list of integers >= 1"),
         ("+sac.learning_rate=0.1", r"sac\.learning_rate is not a known key \(allowed: "),
@@ -74,12 +107,6 @@ def test_invalid_values_fail_with_one_line_naming_the_key(compose_config, overri
     with pytest.raises(ConfigError, match=message) as err:
         build(SACSettings, cfg.sac, "sac")
     assert "\n" not in str(err.value)
-
-
-def test_a_task_without_a_budget_is_refused_naming_the_task():
-    settings = dataclasses.replace(SACSettings(), budgets={"two_link-dense": 1000})
-    with pytest.raises(ConfigError, match=r"sac\.budgets has no entry for task 'one_link_1m0-dense'"):
-        settings.steps_for(make_task("one_link_1m0", "dense"))
 
 
 def test_variant_names_the_her_run():
@@ -96,3 +123,9 @@ def test_the_protocol_adds_her_to_the_sparse_tasks_only():
     assert variants[("two_link", "sparse")] == ["sac", "sac+her"]
     assert variants[("two_link_obstacle", "dense")] == ["sac"]
     assert sum(len(v) for v in variants.values()) == 10  # 7 tasks + HER on the 3 sparse ones
+
+
+def test_a_gym_task_gets_sac_only_and_no_reward_is_read():
+    # GymTask has no ``reward`` attribute: touching it would raise AttributeError
+    assert not hasattr(GymTask("Pendulum-v1"), "reward")
+    assert [v.variant for v in protocol_variants(GymTask("Pendulum-v1"), SACSettings(her=True))] == ["sac"]

@@ -23,7 +23,10 @@ log = logging.getLogger("study")
 
 
 def _sac_curves(cfg: Any, cache, results):
-    """Learning curves of every task of the study (None when SAC is switched off or unavailable)."""
+    """Learning curves of every task of the study (None when SAC is switched off or unavailable).
+
+    Tasks SAC skips (discrete actions) are listed in ``curves.attrs["sac_skipped"]`` ({id: reason}).
+    """
     if not cfg.sac.get("enabled", True):
         return None
     try:
@@ -31,8 +34,9 @@ def _sac_curves(cfg: Any, cache, results):
     except ImportError:  # pragma: no cover - the SAC stage is optional at import time
         log.warning("SAC stage unavailable; the report will say so")
         return None
-    tasks = {r.request.task.task_id: r.request.task for r in results}
-    return study_sac_curves(cache, list(tasks.values()), cfg.sac, force=bool(cfg.force), progress=True)
+    study = study_from(cfg)  # each entry carries its SAC budget (sac_steps) and solved_return
+    tasks = [(study.task(r.task_id), r.request.task) for r in results]
+    return study_sac_curves(cache, tasks, cfg.sac, force=bool(cfg.force), progress=True)
 
 
 @one_line_errors

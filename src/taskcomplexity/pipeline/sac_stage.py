@@ -3,13 +3,15 @@
 A run's checkpoints live in the key's scratch directory, so an interrupted run resumes from its last
 checkpoint (exactly: see ``taskcomplexity.rl``); the curve is written atomically when it finishes.
 The seeds of a task train together, and a seed's curve depends on its group, so the key hashes the
-whole seed group.
+whole seed group. The budget is part of the settings hashed: ``sac.total_steps`` once resolved
+(``sac.total_steps`` itself, else the study entry's ``sac_steps``).
 """
 
 from __future__ import annotations
 
 import logging
 import shutil
+from collections.abc import Sequence
 from typing import Any
 
 import pandas as pd
@@ -17,7 +19,6 @@ import pandas as pd
 from taskcomplexity.config import build
 from taskcomplexity.pipeline.cache import Artefact, Cache
 from taskcomplexity.pipeline.keys import canonical, stage_key
-from taskcomplexity.tasks.spec import TaskSpec
 
 log = logging.getLogger(__name__)
 
@@ -26,26 +27,46 @@ VERSION = 1
 CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
 NOT_IN_KEY = ("enabled", "num_threads", "checkpoint_every")
+SKIPPED_ATTR = "sac_skipped"
+"""``curves.attrs[SKIPPED_ATTR]``: {study task id: reason} of the tasks SAC did not run on."""
 
 
-def sac_identity(task: TaskSpec, settings) -> dict:
+def sac_identity(task, settings, *, solved_return: float | None = None) -> dict:
+    """What a SAC artefact is a function of: the task's identity and the settings (budget resolved).
+
+    ``solved_return`` (the study's threshold for envs that report no success) enters only when set.
+    """
     values = canonical(settings)
-    return {"task": canonical(task), "settings": {k: v for k, v in values.items() if k not in NOT_IN_KEY}}
+    identity = {"task": task.identity(), "settings": {k: v for k, v in values.items() if k not in NOT_IN_KEY}}
+    if solved_return is not None:
+        identity["solved_return"] = float(solved_return)
+    return identity
 
 
 def run_sac_stage(
-    cache: Cache, task: TaskSpec, settings, *, force: bool = False, progress: bool = False
+    cache: Cache,
+    task,
+    settings,
+    *,
+    solved_return: float | None = None,
+    force: bool = False,
+    progress: bool = False,
 ) -> tuple[Artefact, bool]:
-    """Train (or reuse) one SAC variant of ``task`` over its seed group."""
+    """Train (or reuse) one SAC variant of ``task`` over its seed group.
+
+    ``settings.total_steps`` must be the run's budget (see :func:`taskcomplexity.rl.with_budget`).
+    """
     from taskcomplexity.rl import train_sac_seeds
 
-    identity = sac_identity(task, settings)
+    identity = sac_identity(task, settings, solved_return=solved_return)
     key = stage_key(STAGE, VERSION, identity)
     variant = "sac+her" if settings.her else "sac"
 
     def write(directory) -> dict:
         scratch = cache.scratch(STAGE, key)
-        curves = train_sac_seeds(task, settings, checkpoint_dir=scratch, progress=progress)
+        curves = train_sac_seeds(
+            task, settings, checkpoint_dir=scratch, progress=progress, solved_return=solved_return
+        )
         curves.to_parquet(directory / CURVES, index=False)
         return {"label": f"{task.task_id} {variant} seeds={list(settings.seeds)}", "variant": variant}
 
@@ -62,19 +83,53 @@ def sac_settings_from_config(node: Any):
 
 
 def study_sac_curves(
-    cache: Cache, tasks: list[TaskSpec], node: Any, *, force: bool = False, progress: bool = False
+    cache: Cache, tasks: Sequence[tuple[Any, Any]], node: Any, *, force: bool = False, progress: bool = False
 ) -> pd.DataFrame:
-    """Every variant of sac.md (SAC; + HER on sparse tasks) for every task, as one tidy table."""
-    from taskcomplexity.rl.settings import protocol_variants
+    """Every variant of sac.md (SAC; + HER on sparse reaching tasks) for every study task, as one tidy table.
+
+    Parameters
+    ----------
+    tasks : sequence of (StudyTask, Task)
+        The study's entries and their composed tasks. Each run's budget is ``sac.total_steps`` when
+        set, else the entry's ``sac_steps``; the entry's ``solved_return`` scores envs that report no
+        success. The ``task`` column holds the entry's id.
+    node : the ``sac`` config node.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`taskcomplexity.rl.CURVE_COLUMNS`. Tasks SAC cannot run on (discrete actions) are
+        left out, each logged once ("SAC skipped for <id>: discrete actions") and listed in
+        ``frame.attrs["sac_skipped"]`` ({task id: reason}); when every task is skipped the frame is
+        empty (with the columns).
+
+    Raises
+    ------
+    ConfigError
+        If a task has neither ``sac.total_steps`` nor ``sac_steps`` (checked for every task first).
+    """
+    from taskcomplexity.rl import CURVE_COLUMNS, protocol_variants, sac_skip_reason, with_budget
 
     settings = sac_settings_from_config(node)
+    skipped: dict[str, str] = {}
+    runs = []
+    for entry, task in tasks:
+        reason = sac_skip_reason(task)
+        if reason is not None:
+            skipped[entry.id] = reason
+            continue
+        budgeted = with_budget(settings, entry.sac_steps, task_id=entry.id)
+        runs.append((entry, task, budgeted))
+    for task_id, reason in skipped.items():
+        log.warning("SAC skipped for %s: %s", task_id, reason)
     frames = []
-    for task in tasks:
-        for variant in protocol_variants(task, settings):
-            artefact, hit = run_sac_stage(cache, task, variant, force=force, progress=progress)
-            name = "sac+her" if variant.her else "sac"
-            log.info("sac %s %s: %s", task.task_id, name, "cache hit" if hit else "trained")
-            frames.append(pd.read_parquet(artefact.file(CURVES)))
-    return pd.concat(frames, ignore_index=True)
-
-
+    for entry, task, budgeted in runs:
+        for variant in protocol_variants(task, budgeted):
+            artefact, hit = run_sac_stage(
+                cache, task, variant, solved_return=entry.solved_return, force=force, progress=progress
+            )
+            log.info("sac %s %s: %s", entry.id, variant.variant, "cache hit" if hit else "trained")
+            frames.append(pd.read_parquet(artefact.file(CURVES)).assign(task=entry.id))
+    curves = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=list(CURVE_COLUMNS))
+    curves.attrs[SKIPPED_ATTR] = skipped
+    return curves

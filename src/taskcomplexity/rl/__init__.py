@@ -1,7 +1,9 @@
 """Soft Actor-Critic (+ Hindsight Experience Replay) with TorchRL: the empirical difficulty of a task.
 
-``train_sac(task, settings, seed=...)`` returns a tidy learning curve (see
-:data:`~taskcomplexity.rl.train.CURVE_COLUMNS`); ``train_sac_seeds`` trains several seeds together.
+Any :class:`~taskcomplexity.tasks.base.Task` with a Box action space: the reaching arms (with HER
+on their goal-conditioned view) and any gymnasium id. ``train_sac(task, settings, seed=...)`` returns
+a tidy learning curve (see :data:`~taskcomplexity.rl.train.CURVE_COLUMNS`); ``train_sac_seeds``
+trains several seeds together. Discrete action spaces are not trained (``sac_skip_reason``).
 """
 
 import warnings
@@ -14,7 +16,22 @@ with warnings.catch_warnings():
     )
     import torchrl.collectors  # noqa: F401
 
-from taskcomplexity.rl.settings import PAPER_BUDGETS, SACSettings, protocol_variants  # noqa: E402
+from taskcomplexity.rl.settings import (  # noqa: E402
+    SACSettings,
+    has_goal_view,
+    protocol_variants,
+    sac_skip_reason,
+    with_budget,
+)
 from taskcomplexity.rl.train import CURVE_COLUMNS, train_sac, train_sac_seeds  # noqa: E402
 
-__all__ = ["CURVE_COLUMNS", "PAPER_BUDGETS", "SACSettings", "protocol_variants", "train_sac", "train_sac_seeds"]
+__all__ = [
+    "CURVE_COLUMNS",
+    "SACSettings",
+    "has_goal_view",
+    "protocol_variants",
+    "sac_skip_reason",
+    "train_sac",
+    "train_sac_seeds",
+    "with_budget",
+]

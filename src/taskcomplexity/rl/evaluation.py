@@ -12,6 +12,7 @@ from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from taskcomplexity.rl.seeding import derive_seed
+from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.goal_env import goal_distance
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -39,11 +40,13 @@ def observed_distance(task: TaskSpec, next_td: TensorDictBase, *, goal_condition
 def evaluate(
     env: EnvBase,
     policy: TensorDictModuleBase,
-    task: TaskSpec,
+    task: Task,
     *,
     seeds: Sequence[int],
     episodes: int,
     goal_conditioned: bool,
+    success_key: str | None = None,
+    solved_return: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Run ``episodes`` episodes per seed with the mean action, all at once.
 
@@ -56,13 +59,19 @@ def evaluate(
         The run's seeds, S of them.
     episodes : int
         E.
+    success_key : str, optional
+        The info key the env reports success in (read into the tensordicts by ``make_env``).
+    solved_return : float, optional
+        For a task whose env reports no success: an episode whose return reaches it is solved.
 
     Returns
     -------
     returns : ndarray (S, E)
         Undiscounted episode returns.
-    success : ndarray (S, E) of bool
-        Whether the end effector came within the task's threshold (d < 0.05 m) during the episode.
+    success : ndarray (S, E) of float (1.0 solved, 0.0 not, NaN unknown)
+        Reaching arms: whether the end effector came within the task's threshold (d < 0.05 m) during
+        the episode. Other tasks: whether ``info[success_key]`` was true at some step of the episode;
+        else whether the return reached ``solved_return``; else NaN (nothing says what solved means).
 
     Notes
     -----
@@ -84,9 +93,18 @@ def evaluate(
             stepped, td = env.step_and_maybe_reset(td)
             nxt = stepped.get("next")
             returns += torch.where(alive, nxt.get("reward").squeeze(-1), 0.0)
-            reached = observed_distance(task, nxt, goal_conditioned=goal_conditioned) < task.reward.threshold
-            success |= alive & reached
+            if isinstance(task, TaskSpec):
+                reached = observed_distance(task, nxt, goal_conditioned=goal_conditioned) < task.reward.threshold
+                success |= alive & reached
+            elif success_key is not None:
+                success |= alive & nxt.get(success_key).reshape(size).bool()
             alive &= ~nxt.get("done").squeeze(-1)
             if not alive.any():
                 break
-    return returns.reshape(num_seeds, episodes).numpy(), success.reshape(num_seeds, episodes).numpy()
+    if isinstance(task, TaskSpec) or success_key is not None:
+        solved = success.double()
+    elif solved_return is not None:
+        solved = (returns >= solved_return).double()
+    else:
+        solved = torch.full((size,), float("nan"), dtype=torch.float64)
+    return returns.reshape(num_seeds, episodes).numpy(), solved.reshape(num_seeds, episodes).numpy()

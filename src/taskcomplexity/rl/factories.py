@@ -1,6 +1,7 @@
 """The pieces of a SAC run, one ``make_<thing>`` per piece, each from explicit arguments.
 
-Everything is a TorchRL component: our gymnasium tasks behind :class:`~torchrl.envs.GymWrapper`, a
+Everything is a TorchRL component: any task's gymnasium env (``task.make_env()``; the reaching arms'
+goal-conditioned view for HER) behind :class:`~torchrl.envs.GymWrapper`, a
 tanh-Normal :class:`~torchrl.modules.ProbabilisticActor`, :class:`~torchrl.modules.ValueOperator`
 critics on :class:`~torchrl.modules.MLP`, :class:`~torchrl.objectives.SACLoss` with
 :class:`~torchrl.objectives.SoftUpdate`, the synchronous :class:`~torchrl.collectors.Collector`
@@ -18,47 +19,121 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import gymnasium
+import numpy as np
 import torch
 from tensordict.nn import NormalParamExtractor, TensorDictModule, TensorDictSequential
 from torch import nn
 from torchrl.collectors import Collector
-from torchrl.data import Bounded, LazyTensorStorage, TensorDictReplayBuffer
+from torchrl.data import Bounded, Categorical, LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs import Compose, DoubleToFloat, EnvBase, GymWrapper, RewardSum, TransformedEnv
+from torchrl.envs.libs.gym import default_info_dict_reader
 from torchrl.modules import MLP, ProbabilisticActor, TanhNormal, ValueOperator
 from torchrl.objectives import SACLoss, SoftUpdate, ValueEstimators
 
 from taskcomplexity.rl.her import make_her_replay_buffer
 from taskcomplexity.rl.layers import SeedBatchedLinear, reset_seed_parameters
 from taskcomplexity.rl.seeding import derive_seed
+from taskcomplexity.tasks.base import Task, encode_observations
 from taskcomplexity.tasks.goal_env import GoalReachingEnv, join_observation
 from taskcomplexity.tasks.spec import TaskSpec
 
 POLICY_INPUT_KEY = "policy_input"
 ACTION_SCALE_LOWER_BOUND = 1e-4  # smallest standard deviation of the Gaussian before tanh
+SUCCESS_INFO_KEYS = ("is_success", "success")  # info keys read as "the episode is solved", first found
 
 
-def make_env(task: TaskSpec, num_envs: int, *, goal_conditioned: bool) -> TransformedEnv:
-    """``num_envs`` independent instances of ``task`` stepped together, as one TorchRL environment.
+class _PolicyObservation(gymnasium.ObservationWrapper):
+    """A task's observation as the flat float vector the networks read (Discrete: one-hot)."""
 
-    A gymnasium ``SyncVectorEnv`` (auto-reset disabled: TorchRL resets finished instances itself) of
-    ``TimeLimit(ReachingEnv)`` — or ``TimeLimit(GoalReachingEnv(ReachingEnv))`` — wrapped by
-    :class:`~torchrl.envs.GymWrapper`, with ``DoubleToFloat`` (float32 observations) and ``RewardSum``
-    (``episode_reward``: the return so far). Batch size ``(num_envs,)``.
+    def __init__(self, env: gymnasium.Env):
+        super().__init__(env)
+        self._source = env.observation_space
+        size = int(self._source.n) if isinstance(self._source, gymnasium.spaces.Discrete) else None
+        size = size or int(np.prod(self._source.shape, dtype=np.int64))
+        self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (size,), dtype=np.float32)
 
-    Seed it through its reset: ``env.reset(seed=[...])`` (one seed per instance).
+    def observation(self, observation):
+        return encode_observations(self._source, np.asarray(observation)[None])[0].astype(np.float32)
+
+
+def one_env(task: Task, *, goal_conditioned: bool) -> gymnasium.Env:
+    """One instance of ``task`` as SAC sees it (time limit included).
+
+    A reaching arm is its PyBullet env, or its goal-conditioned view with ``goal_conditioned``
+    (HER). Any other task is ``task.make_env()``; an observation that is not already a flat Box
+    (a multi-dimensional Box, a Discrete value) is flattened or one-hot encoded.
     """
-    from taskcomplexity.tasks.pybullet_env import ReachingEnv
+    if isinstance(task, TaskSpec):
+        from taskcomplexity.tasks.pybullet_env import ReachingEnv
 
-    def one() -> gymnasium.Env:
         env: gymnasium.Env = ReachingEnv(task=task)
         if goal_conditioned:
             env = GoalReachingEnv(env)
         return gymnasium.wrappers.TimeLimit(env, max_episode_steps=task.max_steps)
+    env = task.make_env()
+    space = env.observation_space
+    if not (isinstance(space, gymnasium.spaces.Box) and len(space.shape) == 1):
+        env = _PolicyObservation(env)
+    return env
+
+
+def success_info_key(task: Task) -> str | None:
+    """The info key in which ``task``'s env reports success (:data:`SUCCESS_INFO_KEYS`), or None.
+
+    Probed on one fresh instance: the keys of the reset's info and of one step's info (a sampled
+    action). The reaching arms report none (their success is measured from the observation).
+    """
+    if isinstance(task, TaskSpec):
+        return None
+    env = task.make_env()
+    try:
+        _, info = env.reset(seed=0)
+        keys = set(info)
+        env.action_space.seed(0)
+        keys |= set(env.step(env.action_space.sample())[-1])
+    finally:
+        env.close()
+    return next((key for key in SUCCESS_INFO_KEYS if key in keys), None)
+
+
+def make_env(
+    task: Task, num_envs: int, *, goal_conditioned: bool, success_key: str | None = None
+) -> TransformedEnv:
+    """``num_envs`` independent instances of ``task`` stepped together, as one TorchRL environment.
+
+    A gymnasium ``SyncVectorEnv`` (auto-reset disabled: TorchRL resets finished instances itself) of
+    :func:`one_env` wrapped by :class:`~torchrl.envs.GymWrapper`, with ``DoubleToFloat`` (float32
+    observations) and ``RewardSum`` (``episode_reward``: the return so far). Batch size ``(num_envs,)``.
+    With ``success_key``, the env's ``info[success_key]`` is read into the tensordicts under that key.
+
+    Seed it through its reset: ``env.reset(seed=[...])`` (one seed per instance).
+    """
+
+    def one() -> gymnasium.Env:
+        return one_env(task, goal_conditioned=goal_conditioned)
 
     vector = gymnasium.vector.SyncVectorEnv(
         [one] * num_envs, autoreset_mode=gymnasium.vector.AutoresetMode.DISABLED
     )
-    return TransformedEnv(GymWrapper(vector), Compose(DoubleToFloat(), RewardSum()))
+    base = GymWrapper(vector)
+    if success_key is not None:
+        flag = Categorical(2, shape=(num_envs, 1), dtype=torch.bool)
+        base.set_info_dict_reader(default_info_dict_reader([success_key], spec={success_key: flag}))
+    return TransformedEnv(base, Compose(DoubleToFloat(), RewardSum()))
+
+
+def action_bounds(task: Task) -> tuple[float | torch.Tensor, float | torch.Tensor]:
+    """Low and high bounds of ``task``'s Box action space, float32 tensors (n_act,).
+
+    Plain floats when every dimension shares them (the arms' [−1, 1]), which keeps TorchRL's
+    ``TanhNormal`` on its scalar path.
+    """
+    space = task.action_space
+    low = np.asarray(space.low, dtype=np.float32).reshape(-1)
+    high = np.asarray(space.high, dtype=np.float32).reshape(-1)
+    if np.all(low == low[0]) and np.all(high == high[0]):
+        return float(low[0]), float(high[0])
+    return torch.as_tensor(low), torch.as_tensor(high)
 
 
 class _TaskObservation(nn.Module):
@@ -83,7 +158,7 @@ def _input_modules(task: TaskSpec, goal_conditioned: bool) -> tuple[list[TensorD
 
 
 def make_actor_critic(
-    task: TaskSpec,
+    task: Task,
     *,
     hidden_sizes: Sequence[int],
     seeds: Sequence[int],
@@ -93,8 +168,9 @@ def make_actor_critic(
 
     Parameters
     ----------
-    task : TaskSpec
-        Input size (the task observation, 9 or 10 values) and action size (1 or 2).
+    task : Task
+        Input size (``task.observation_size``: 9 or 10 values for the arms) and action size, and the
+        action bounds (the tanh output is scaled affinely into the Box's [low, high]).
     hidden_sizes : sequence of int
         Hidden widths of every MLP (ReLU).
     seeds : sequence of int
@@ -106,8 +182,9 @@ def make_actor_critic(
     Returns
     -------
     actor : ProbabilisticActor
-        Writes ``action`` (S, ..., n_act) in [−1, 1]: tanh of a Gaussian sample (or of its mean under
-        ``ExplorationType.DETERMINISTIC``).
+        Writes ``action`` (S, ..., n_act) in the Box's [low, high] (TorchRL's ``TanhNormal`` with
+        ``low``/``high``: low + (tanh(u) + 1)·(high − low)/2 of a Gaussian sample u, or of its mean
+        under ``ExplorationType.DETERMINISTIC``); [−1, 1] for the arms.
     critics : list of two TensorDictSequential
         Write ``state_action_value`` (S, ..., 1).
     """
@@ -119,12 +196,13 @@ def make_actor_critic(
     )
     reset_seed_parameters(body, [derive_seed(seed, "actor") for seed in seeds])
     inputs, input_key = _input_modules(task, goal_conditioned)
+    low, high = action_bounds(task)
     actor = ProbabilisticActor(
         TensorDictSequential(*inputs, TensorDictModule(body, in_keys=[input_key], out_keys=["loc", "scale"])),
         in_keys=["loc", "scale"],
-        spec=Bounded(-1.0, 1.0, (n_act,)),
+        spec=Bounded(low, high, (n_act,)),
         distribution_class=TanhNormal,
-        distribution_kwargs={"low": -1.0, "high": 1.0},
+        distribution_kwargs={"low": low, "high": high},
     )
     critics = []
     for index in range(2):
@@ -203,7 +281,7 @@ def make_collector(
 
 
 def make_replay_buffers(
-    task: TaskSpec,
+    task: Task,
     *,
     num_buffers: int,
     capacity: int,

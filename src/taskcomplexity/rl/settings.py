@@ -3,24 +3,15 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
+
+from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.spec import TaskSpec
 
 HER_STRATEGIES = ("future", "final", "episode", "random")
 LOSS_FUNCTIONS = ("l2", "l1", "smooth_l1")
-
-# Reference budgets of shared/spec/sac.md: environment steps per seed, by task id.
-PAPER_BUDGETS: dict[str, int] = {
-    "one_link_1m0-dense": 50_000,
-    "one_link_1m0-sparse": 50_000,
-    "one_link_1m65-dense": 50_000,
-    "one_link_1m65-sparse": 50_000,
-    "two_link-dense": 100_000,
-    "two_link-sparse": 200_000,
-    "two_link_obstacle-dense": 200_000,
-}
 
 
 @dataclass(frozen=True)
@@ -59,10 +50,9 @@ class SACSettings:
         Environment steps between two deterministic evaluations (also run at step 0 and at the end).
     eval_episodes : int
         Episodes per evaluation and seed (mean action; the same start states at every evaluation).
-    budgets : dict of str to int
-        Environment steps per seed, by task id (``arm-reward``); a ``sac+her`` run uses its task's.
     total_steps : int or None
-        If set, the budget of every task (overrides ``budgets``).
+        The run's budget, environment steps per seed. None: each study task's ``sac_steps`` (the study
+        file holds the budgets; :func:`with_budget` resolves them); a run needs one or the other.
     seeds : tuple of int
         The seeds of the protocol.
     train_seeds_together : bool
@@ -96,7 +86,6 @@ class SACSettings:
     warmup_steps: int = 1000
     eval_every: int = 1000
     eval_episodes: int = 10
-    budgets: dict[str, int] = field(default_factory=lambda: dict(PAPER_BUDGETS))
     total_steps: int | None = None
     seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
     train_seeds_together: bool = True
@@ -110,22 +99,6 @@ class SACSettings:
     def variant(self) -> str:
         """``"sac+her"`` or ``"sac"``: the ``variant`` column of the learning curves."""
         return "sac+her" if self.her else "sac"
-
-    def steps_for(self, task: TaskSpec) -> int:
-        """The run's budget for ``task`` (environment steps per seed).
-
-        Raises
-        ------
-        ConfigError
-            If ``total_steps`` is unset and ``budgets`` has no entry for the task.
-        """
-        if self.total_steps is not None:
-            return self.total_steps
-        if task.task_id not in self.budgets:
-            raise ConfigError(
-                f"sac.budgets has no entry for task {task.task_id!r} (have: {', '.join(sorted(self.budgets))})"
-            )
-        return self.budgets[task.task_id]
 
     def validate(self, where: str = "sac") -> SACSettings:
         """Check types and ranges; raise :class:`ConfigError` naming the key, value and what is allowed."""
@@ -159,15 +132,8 @@ class SACSettings:
                 raise ConfigError(
                     f"{where}.{name} must be a multiple of {where}.collect_steps={self.collect_steps}, got {value}"
                 )
-        budgets = dict(self.budgets) if self.total_steps is None else {"total_steps": self.total_steps}
-        for task_id, steps in budgets.items():
-            key = f"{where}.total_steps" if task_id == "total_steps" else f"{where}.budgets.{task_id}"
-            if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-                raise ConfigError(f"{key} must be an integer >= 1, got {steps!r}")
-            if steps % self.collect_steps:
-                raise ConfigError(
-                    f"{key} must be a multiple of {where}.collect_steps={self.collect_steps}, got {steps}"
-                )
+        if self.total_steps is not None:
+            _check_budget(f"{where}.total_steps", self.total_steps, self.collect_steps, where)
         return self
 
 
@@ -176,13 +142,67 @@ def _check(where: str, name: str, value, allowed: str, ok) -> None:
         raise ConfigError(f"{where}.{name} must be {allowed}, got {value!r}")
 
 
-def protocol_variants(task: TaskSpec, settings: SACSettings) -> tuple[SACSettings, ...]:
-    """The runs sac.md asks for on ``task``: SAC, plus SAC + HER when the reward is sparse.
+def _check_budget(key: str, steps, collect_steps: int, where: str) -> None:
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ConfigError(f"{key} must be an integer >= 1, got {steps!r}")
+    if steps % collect_steps:
+        raise ConfigError(f"{key} must be a multiple of {where}.collect_steps={collect_steps}, got {steps}")
 
-    Returns ``settings`` with ``her=False`` and, for a sparse task, a copy with ``her=True``
-    (``variant`` "sac" and "sac+her").
+
+def with_budget(settings: SACSettings, sac_steps: int | None, *, task_id: str, where: str = "sac") -> SACSettings:
+    """``settings`` with the run's budget resolved: ``total_steps`` when set, else the study's ``sac_steps``.
+
+    Parameters
+    ----------
+    sac_steps : int or None
+        The study entry's budget (environment steps per seed), if the task has an entry with one.
+    task_id : str
+        Named in the error.
+
+    Raises
+    ------
+    ConfigError
+        If neither is set, naming ``sac.total_steps``; or if ``sac_steps`` is not a positive multiple
+        of ``sac.collect_steps``.
+    """
+    if settings.total_steps is not None:
+        return settings
+    if sac_steps is None:
+        raise ConfigError(
+            f"no SAC budget for task {task_id}: set {where}.total_steps or the study entry's sac_steps"
+        )
+    _check_budget(f"study.tasks[{task_id}].sac_steps", sac_steps, settings.collect_steps, where)
+    return replace(settings, total_steps=sac_steps)
+
+
+def has_goal_view(task) -> bool:
+    """Whether ``task`` has a goal-conditioned view (observation, achieved goal, desired goal) for HER.
+
+    The reaching arms without an obstacle have one (``taskcomplexity.tasks.goal_env``); a generic
+    gymnasium task has none.
+    """
+    return isinstance(task, TaskSpec) and task.arm.obstacle is None
+
+
+def sac_skip_reason(task) -> str | None:
+    """Why SAC does not run on ``task`` (None: it does).
+
+    SAC here is the continuous-action algorithm of sac.md (tanh-Gaussian actor scaled into the Box
+    bounds); a Discrete action space is skipped with the reason ``"discrete actions"``.
+    """
+    if isinstance(task.action_space, spaces.Discrete):
+        return "discrete actions"
+    return None
+
+
+def protocol_variants(task, settings: SACSettings) -> tuple[SACSettings, ...]:
+    """The runs sac.md asks for on ``task``: SAC, plus SAC + HER on a sparse task with a goal view.
+
+    Returns ``settings`` with ``her=False`` and, for a sparse reaching task (the only tasks with a
+    sparse reward and a goal-conditioned view), a copy with ``her=True`` (``variant`` "sac" and
+    "sac+her"). A generic gymnasium task gets SAC only.
     """
     plain = replace(settings, her=False)
-    if task.reward.kind == "sparse":
+    if has_goal_view(task) and task.reward.kind == "sparse":
         return plain, replace(settings, her=True)
     return (plain,)

@@ -1,4 +1,4 @@
-"""Train SAC (+HER) on a reaching task and return its learning curve.
+"""Train SAC (+HER) on a task (a reaching arm or any gymnasium id with Box actions); return its learning curve.
 
 A run (``_Run.train``) reads as a sequence of ``make_<thing>`` calls (see
 :mod:`taskcomplexity.rl.factories`), then the loop: collect ``collect_steps`` steps per seed, store
@@ -56,7 +56,7 @@ from torchrl.modules import ProbabilisticActor
 from torchrl.objectives import SACLoss, SoftUpdate
 from tqdm.auto import tqdm
 
-from taskcomplexity.errors import ArtefactError
+from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.rl.checkpoint import load_checkpoint, save_checkpoint
 from taskcomplexity.rl.evaluation import evaluate
 from taskcomplexity.rl.factories import (
@@ -67,9 +67,11 @@ from taskcomplexity.rl.factories import (
     make_optimisers,
     make_replay_buffers,
     make_target_updater,
+    success_info_key,
 )
 from taskcomplexity.rl.seeding import derive_seed
-from taskcomplexity.rl.settings import SACSettings
+from taskcomplexity.rl.settings import SACSettings, sac_skip_reason
+from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.goal_env import goal_layout
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -88,21 +90,25 @@ CHECKPOINT_FORMAT = 1
 
 
 def train_sac(
-    task: TaskSpec,
+    task: Task,
     settings: SACSettings,
     *,
     seed: int,
     checkpoint_dir: Path | None = None,
     progress: bool = False,
     stop_after: int | None = None,
+    solved_return: float | None = None,
 ) -> pd.DataFrame:
     """Train one seed of SAC (``settings.her``: SAC + HER) on ``task``; return its learning curve.
 
     Parameters
     ----------
-    task : TaskSpec
+    task : Task
+        A reaching arm (:class:`~taskcomplexity.tasks.spec.TaskSpec`) or any task with a Box action
+        space (e.g. ``GymTask("Pendulum-v1")``); a Discrete action space raises :class:`ConfigError`.
     settings : SACSettings
-        The budget is ``settings.steps_for(task)`` environment steps.
+        The budget is ``settings.total_steps`` environment steps (resolve a study's budget first with
+        :func:`~taskcomplexity.rl.settings.with_budget`).
     seed : int
         Everything random in the run derives from it (see the module notes).
     checkpoint_dir : Path, optional
@@ -113,6 +119,9 @@ def train_sac(
     stop_after : int, optional
         Stop at the first checkpoint boundary at or after this many steps (after writing the
         checkpoint) and return the partial curve: for time-sliced jobs and tests of resumption.
+    solved_return : float, optional
+        For a task whose env reports no success in its info: the return that counts an evaluation
+        episode as solved (the study entry's ``solved_return``).
 
     Returns
     -------
@@ -121,23 +130,27 @@ def train_sac(
         :data:`CURVE_COLUMNS`: ``task`` (task id), ``variant`` ("sac" or "sac+her"), ``seed``,
         ``env_step`` (environment steps of this seed so far), ``eval/return_mean`` and
         ``eval/return_std`` (over ``eval_episodes`` deterministic episodes), ``eval/success_rate``
-        (fraction of those episodes that reached the target), ``train/episode_return`` (return of
+        (fraction of those episodes that were solved: the arms' target reached, the env's
+        ``info["is_success"]``/``info["success"]``, or the return reaching ``solved_return``; NaN
+        when none of these applies), ``train/episode_return`` (return of
         the latest finished training episode; NaN before the first), ``time/seconds`` (wall-clock
         seconds of training so far, summed over resumptions).
     """
     return train_sac_seeds(
-        task, settings, seeds=(seed,), checkpoint_dir=checkpoint_dir, progress=progress, stop_after=stop_after
+        task, settings, seeds=(seed,), checkpoint_dir=checkpoint_dir, progress=progress, stop_after=stop_after,
+        solved_return=solved_return,
     )
 
 
 def train_sac_seeds(
-    task: TaskSpec,
+    task: Task,
     settings: SACSettings,
     *,
     seeds: Sequence[int] | None = None,
     checkpoint_dir: Path | None = None,
     progress: bool = False,
     stop_after: int | None = None,
+    solved_return: float | None = None,
 ) -> pd.DataFrame:
     """Train ``seeds`` (default ``settings.seeds``) on ``task``; their curves stacked (see :func:`train_sac`).
 
@@ -147,14 +160,22 @@ def train_sac_seeds(
     seeds = tuple(int(s) for s in (settings.seeds if seeds is None else seeds))
     settings = dataclasses.replace(settings, seeds=seeds).validate()
     task = task.validate()
+    reason = sac_skip_reason(task)
+    if reason is not None:
+        raise ConfigError(f"SAC cannot run on task {task.task_id}: {reason} ({task.action_space}; SAC needs a Box)")
+    if settings.total_steps is None:
+        raise ConfigError(f"no SAC budget for task {task.task_id}: set sac.total_steps (or the study's sac_steps)")
     if settings.her:
-        goal_layout(task)  # raises ConfigError for a task without a goal-conditioned view
+        if not isinstance(task, TaskSpec):
+            raise ConfigError(f"sac.her=true needs a goal-conditioned view, and task {task.task_id} has none "
+                              "(allowed: the reaching arms without an obstacle)")
+        goal_layout(task)  # raises ConfigError for an arm without a goal-conditioned view
     if settings.train_seeds_together or len(seeds) == 1:
-        return _Run(task, settings, checkpoint_dir, progress).train(stop_after)
+        return _Run(task, settings, checkpoint_dir, progress, solved_return).train(stop_after)
     curves = []
     for seed in seeds:
         directory = None if checkpoint_dir is None else Path(checkpoint_dir) / f"seed-{seed}"
-        run = _Run(task, dataclasses.replace(settings, seeds=(seed,)), directory, progress)
+        run = _Run(task, dataclasses.replace(settings, seeds=(seed,)), directory, progress, solved_return)
         curves.append(run.train(stop_after))
     return pd.concat(curves, ignore_index=True)
 
@@ -186,13 +207,22 @@ class _Parts:
 class _Run:
     """One (vectorised) training run; :meth:`train` builds everything, resumes, loops, cleans up."""
 
-    def __init__(self, task: TaskSpec, settings: SACSettings, checkpoint_dir: Path | None, progress: bool):
+    def __init__(
+        self,
+        task: Task,
+        settings: SACSettings,
+        checkpoint_dir: Path | None,
+        progress: bool,
+        solved_return: float | None = None,
+    ):
         self.task, self.settings = task, settings
         self.seeds = settings.seeds
         self.checkpoint_dir = None if checkpoint_dir is None else Path(checkpoint_dir)
         self.progress = progress
-        self.total = settings.steps_for(task)
+        self.total = settings.total_steps
         self.goal_conditioned = settings.her
+        self.solved_return = solved_return
+        self.success_key = success_info_key(task)
 
     # -- the run -------------------------------------------------------------------------------
     def train(self, stop_after: int | None) -> pd.DataFrame:
@@ -202,7 +232,12 @@ class _Run:
             env = eval_env = collector = None
             try:
                 env = make_env(self.task, num_seeds, goal_conditioned=self.goal_conditioned)
-                eval_env = make_env(self.task, num_seeds * s.eval_episodes, goal_conditioned=self.goal_conditioned)
+                eval_env = make_env(
+                    self.task,
+                    num_seeds * s.eval_episodes,
+                    goal_conditioned=self.goal_conditioned,
+                    success_key=self.success_key,
+                )
                 actor, critics = make_actor_critic(
                     self.task, hidden_sizes=s.hidden_sizes, seeds=self.seeds, goal_conditioned=self.goal_conditioned
                 )
@@ -320,6 +355,8 @@ class _Run:
             seeds=self.seeds,
             episodes=s.eval_episodes,
             goal_conditioned=self.goal_conditioned,
+            success_key=self.success_key,
+            solved_return=self.solved_return,
         )
         seconds = time.perf_counter() - clock
         for index, seed in enumerate(self.seeds):
@@ -347,7 +384,10 @@ class _Run:
         settings = dataclasses.asdict(self.settings)
         for name in ("num_threads", "enabled"):  # change how fast (or whether), not what is computed
             settings.pop(name)
-        return {"format": CHECKPOINT_FORMAT, "task": repr(self.task), "settings": repr(settings)}
+        identity = {"format": CHECKPOINT_FORMAT, "task": repr(self.task), "settings": repr(settings)}
+        if self.solved_return is not None:  # changes eval/success_rate
+            identity["solved_return"] = self.solved_return
+        return identity
 
     def _checkpoint(self, p: _Parts, state: _Progress) -> dict[str, Any]:
         return {
