@@ -4,7 +4,10 @@ A run's checkpoints live in the key's scratch directory, so an interrupted run r
 checkpoint (exactly: see ``taskcomplexity.rl``); the curve is written atomically when it finishes.
 The seeds of a task train together, and a seed's curve depends on its group, so the key hashes the
 whole seed group. The budget is part of the settings hashed: ``sac.total_steps`` once resolved
-(``sac.total_steps`` itself, else the study entry's ``sac_steps``).
+(``sac.total_steps`` itself, else the study entry's ``sac_steps``). Keys changed once when the
+budgets moved from ``sac.budgets`` to the study file: the old keys hashed the whole seven-task
+``budgets`` table (so a change to one task's budget re-keyed every task); a key now hashes its own
+task's budget only.
 """
 
 from __future__ import annotations
