@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import io
+import json
 import multiprocessing
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -12,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.pipeline.cache import Cache
+from taskcomplexity.pipeline.cache import Cache, file_digest
 from taskcomplexity.pipeline.metrics_stage import MetricsSettings, run_metrics_stage
 from taskcomplexity.pipeline.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.policies import NetworkSpec, PriorSpec
@@ -91,6 +94,45 @@ def test_a_truncated_parquet_is_detected_and_recomputed(tmp_path, caplog):
     pd.testing.assert_frame_equal(pd.read_parquet(again.file(RETURNS)), good)
 
 
+def test_a_same_size_bit_flip_is_caught_by_the_content_hash_and_recomputed(tmp_path, caplog):
+    cache = Cache(tmp_path)
+    artefact, _ = run_rwg_stage(cache, request())
+    good = pd.read_parquet(artefact.file(RETURNS))
+    data = bytearray(artefact.file(RETURNS).read_bytes())
+    data[len(data) // 3] ^= 0x01  # inside a data page: the size and the footer stay valid
+    artefact.file(RETURNS).write_bytes(bytes(data))
+    with caplog.at_level("WARNING"):
+        again, hit = run_rwg_stage(cache, request())
+    assert not hit and "SHA-256 mismatch" in caplog.text
+    pd.testing.assert_frame_equal(pd.read_parquet(again.file(RETURNS)), good)
+
+
+def test_a_foreign_artefact_under_another_key_or_an_empty_file_list_is_never_served(tmp_path):
+    cache = Cache(tmp_path)
+    mine, _ = run_rwg_stage(cache, request())
+    other = request(seed=2)
+    shutil.copytree(mine.path, cache.path("rwg", other.key))  # someone copies an artefact under another key
+    assert cache.lookup("rwg", other.key) is None and not cache.path("rwg", other.key).exists()
+    served, hit = run_rwg_stage(cache, other)
+    assert not hit and not np.array_equal(load_returns(served), load_returns(mine))
+    manifest = mine.manifest
+    manifest["files"] = {}
+    (mine.path / "manifest.json").write_text(json.dumps(manifest))
+    assert cache.lookup("rwg", mine.key) is None
+
+
+def test_temporary_directories_of_dead_processes_are_removed_by_the_next_writer(tmp_path):
+    cache = Cache(tmp_path)
+    key = request().key
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    orphan = tmp_path / "rwg" / f".tmp-{key}-{int(dead.stdout)}-deadbeef"
+    orphan.mkdir(parents=True)
+    alive = tmp_path / "rwg" / f".tmp-{key}-{os.getpid()}-cafecafe"
+    alive.mkdir()
+    run_rwg_stage(cache, request())
+    assert not orphan.exists() and alive.exists()
+
+
 def test_a_damaged_manifest_is_detected_and_recomputed(tmp_path):
     cache = Cache(tmp_path)
     artefact, _ = run_rwg_stage(cache, request())
@@ -114,7 +156,8 @@ def test_returns_with_nan_are_refused_by_the_metrics_stage_naming_policy_and_epi
     frame.loc[(frame.policy == 4) & (frame.episode == 2), "return"] = np.nan
     frame.to_parquet(artefact.file(RETURNS), index=False)
     manifest = artefact.manifest
-    manifest["files"][RETURNS] = artefact.file(RETURNS).stat().st_size
+    manifest["files"][RETURNS] = {"bytes": artefact.file(RETURNS).stat().st_size,
+                                  "sha256": file_digest(artefact.file(RETURNS))}
     (artefact.path / "manifest.json").write_text(__import__("json").dumps(manifest))
     before = snapshot(tmp_path)
     with pytest.raises(ValueError, match="policy 4, episode 2"):
@@ -183,3 +226,20 @@ def test_cache_listing_shows_artefacts_with_sizes(tmp_path):
     result = run("-m", "taskcomplexity.pipeline.cache", "list", str(tmp_path / "cache"), cwd=tmp_path)
     assert result.returncode == 0
     assert "rwg" in result.stdout and "KB" in result.stdout and "1 artefacts" in result.stdout
+
+
+def _run_forced(root: str, barrier, force: bool) -> bytes:
+    barrier.wait()
+    big = RWGRequest(make_task("two_link", "dense"), NetworkSpec(), PriorSpec(),
+                     RWGSettings(policies=60, episodes=4, seed=3, chunk_policies=4), backend="pybullet")
+    artefact, _ = run_rwg_stage(Cache(root), big, force=force)
+    return artefact.file(RETURNS).read_bytes()
+
+
+def test_force_beside_a_running_job_on_the_same_key_crashes_neither(tmp_path):
+    ctx = multiprocessing.get_context("spawn")
+    barrier = ctx.Manager().Barrier(2)
+    with ctx.Pool(2) as pool:
+        normal, forced = pool.starmap(_run_forced, [(str(tmp_path), barrier, False), (str(tmp_path), barrier, True)])
+    assert pd.read_parquet(io.BytesIO(normal)).equals(pd.read_parquet(io.BytesIO(forced)))
+    assert not list((tmp_path / "rwg").glob(".partial-*-force-*")) and not list((tmp_path / "rwg").glob(".tmp-*"))

@@ -2,15 +2,18 @@
 
 Layout: ``<root>/<stage>/<key>/`` holds the artefact's files and ``manifest.json``. An artefact is
 written into a temporary directory beside it and renamed into place, under a file lock, so an
-interrupted or concurrent run never leaves a half artefact under a valid key. On read every file is
-checked (the manifest parses and lists the files; each parquet's footer and schema read); a corrupt
-artefact is reported, removed and recomputed.
+interrupted or concurrent run never leaves a half artefact under a valid key. Every hit is verified
+before it is served: the manifest names this stage and key (and, when the caller gives it, the same
+config), lists at least one file, and every file has the size and SHA-256 the manifest recorded. A
+damaged, foreign or unverifiable artefact is reported, removed and recomputed — never served.
+Temporary directories of processes that died are removed by the next writer of the same key.
 
 ``python -m taskcomplexity.pipeline.cache list [root]`` lists what is cached, with sizes.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import os
@@ -73,30 +76,79 @@ def ensure_writable(root: Path) -> None:
         raise ArtefactError(f"paths.outputs: cannot write to {root} ({err.strerror or err})") from err
 
 
-def check_artefact(path: Path) -> list[str]:
-    """Problems of the artefact at ``path`` (empty when it is complete and readable)."""
-    import pyarrow.parquet as pq
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file's bytes (hex)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
+
+def check_artefact(path: Path, *, stage: str | None = None, key: str | None = None,
+                   config: dict[str, Any] | None = None) -> list[str]:
+    """Problems of the artefact at ``path`` (empty when it is complete, intact and the one asked for).
+
+    Parameters
+    ----------
+    stage, key : str, optional
+        What the caller looked up; the manifest must name the same.
+    config : dict, optional
+        The config subset the key hashes; the manifest's must be equal.
+    """
     manifest_path = path / MANIFEST
     try:
         manifest = json.loads(manifest_path.read_text())
         files = manifest["files"]
     except (OSError, ValueError, KeyError, TypeError) as err:
         return [f"{manifest_path}: unreadable manifest ({err})"]
+    if not isinstance(files, dict) or not files:
+        return [f"{manifest_path}: lists no files"]
+    for name, expected in (("stage", stage), ("key", key)):
+        if expected is not None and manifest.get(name) != expected:
+            return [f"{manifest_path}: written for {name} {manifest.get(name)!r}, looked up as {expected!r}"]
+    if config is not None and manifest.get("config") != json.loads(json.dumps(config, default=str)):
+        return [f"{manifest_path}: written for other settings than those looked up"]
     problems = []
-    for name, size in files.items():
+    for name, recorded in files.items():
         file = path / name
-        if not file.is_file():
+        if not isinstance(recorded, dict) or "sha256" not in recorded:
+            problems.append(f"{file}: no content hash in the manifest (written by an older version)")
+        elif not file.is_file():
             problems.append(f"{file}: missing")
-        elif file.stat().st_size != size:
-            problems.append(f"{file}: size {file.stat().st_size} bytes, manifest says {size}")
-        elif name.endswith(".parquet"):
-            try:
-                pq.read_metadata(file)
-                pq.read_schema(file)
-            except Exception as err:  # noqa: BLE001 - any reader failure means corrupt
-                problems.append(f"{file}: unreadable parquet ({err})")
+        elif file.stat().st_size != recorded.get("bytes"):
+            problems.append(f"{file}: size {file.stat().st_size} bytes, manifest says {recorded.get('bytes')}")
+        elif file_digest(file) != recorded["sha256"]:
+            problems.append(f"{file}: content differs from what was written (SHA-256 mismatch)")
     return problems
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's live process
+        return True
+    return True
+
+
+def remove_orphans(directory: Path, pattern: str) -> int:
+    """Delete ``pattern`` entries of ``directory`` whose name carries the pid of a dead process.
+
+    Names look like ``….<pid>.…`` or ``…-<pid>-…`` (``.tmp-<key>-<pid>-<hex>``, ``chunk….<pid>.tmp.npz``).
+    Returns how many were removed.
+    """
+    removed = 0
+    for entry in directory.glob(pattern):
+        pids = [int(part) for part in entry.name.replace(".", "-").split("-") if part.isdigit() and len(part) < 8]
+        if pids and not _pid_alive(pids[-1]):
+            if entry.is_dir():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
+                entry.unlink(missing_ok=True)
+            removed += 1
+    return removed
 
 
 class Cache:
@@ -114,12 +166,12 @@ class Cache:
         path.mkdir(parents=True, exist_ok=True)
         return path
 
-    def lookup(self, stage: str, key: str) -> Artefact | None:
-        """The complete artefact, or None; a corrupt one is reported and removed."""
+    def lookup(self, stage: str, key: str, config: dict[str, Any] | None = None) -> Artefact | None:
+        """The complete, verified artefact, or None; a damaged or foreign one is reported and removed."""
         path = self.path(stage, key)
         if not path.exists():
             return None
-        problems = check_artefact(path)
+        problems = check_artefact(path, stage=stage, key=key, config=config)
         if problems:
             log.warning("corrupt %s artefact %s, recomputing: %s", stage, key, "; ".join(problems))
             self._discard(path)
@@ -166,15 +218,16 @@ class Cache:
         (Artefact, hit) — ``hit`` is True when the cache already held it.
         """
         if not force:
-            found = self.lookup(stage, key)
+            found = self.lookup(stage, key, config)
             if found is not None:
                 log.info("cache hit: %s %s (%s)", stage, key, found.path)
                 return found, True
         final = self.path(stage, key)
         final.parent.mkdir(parents=True, exist_ok=True)
         with FileLock(str(final.parent / f".{key}.lock")):
+            remove_orphans(final.parent, f".tmp-{key}-*")
             if not force:
-                found = self.lookup(stage, key)
+                found = self.lookup(stage, key, config)
                 if found is not None:  # a concurrent job finished it while we waited
                     log.info("cache hit: %s %s (computed by a concurrent job)", stage, key)
                     return found, True
@@ -183,7 +236,10 @@ class Cache:
             try:
                 started = time.time()
                 extra = compute(tmp) or {}
-                files = {p.name: p.stat().st_size for p in sorted(tmp.iterdir()) if p.is_file()}
+                files = {p.name: {"bytes": p.stat().st_size, "sha256": file_digest(p)}
+                         for p in sorted(tmp.iterdir()) if p.is_file()}
+                if not files:
+                    raise ArtefactError(f"{stage} {key}: the stage wrote no file")
                 manifest = {
                     "stage": stage,
                     "key": key,

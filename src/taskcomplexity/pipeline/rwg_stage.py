@@ -20,7 +20,7 @@ import pandas as pd
 from filelock import FileLock
 
 from taskcomplexity.errors import ArtefactError
-from taskcomplexity.pipeline.cache import Artefact, Cache
+from taskcomplexity.pipeline.cache import Artefact, Cache, remove_orphans
 from taskcomplexity.pipeline.keys import canonical, stage_key
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
@@ -109,12 +109,17 @@ def _shard_file(scratch: Path, shard: int, shards: int) -> Path:
     return scratch / f"shard-{shard:04d}-of-{shards:04d}.npz"
 
 
-def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bool = False) -> ReturnChunk:
-    """Compute (or reuse) one shard's returns, resuming from saved chunks."""
+def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bool = False,
+                  scratch: Path | None = None) -> ReturnChunk:
+    """Compute (or reuse) one shard's returns, resuming from chunks saved in ``scratch``.
+
+    ``scratch`` defaults to the key's shared partial-work directory (``Cache.scratch``).
+    """
     from taskcomplexity.rwg import chunks
 
     settings = RWGSettings(**{**asdict(request.settings), "shard": shard})
-    scratch = cache.scratch(STAGE, request.key)
+    scratch = scratch or cache.scratch(STAGE, request.key)
+    remove_orphans(scratch, "*.tmp.npz")  # half-written chunks of killed jobs
     shard_path = _shard_file(scratch, shard, settings.shards)
     if shard_path.exists():
         done = _load_chunk(shard_path)
@@ -143,8 +148,8 @@ def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bo
     return result
 
 
-def missing_shards(cache: Cache, request: RWGRequest) -> list[int]:
-    scratch = cache.root / STAGE / f".partial-{request.key}"
+def missing_shards(cache: Cache, request: RWGRequest, scratch: Path | None = None) -> list[int]:
+    scratch = scratch or cache.scratch(STAGE, request.key)
     shards = request.settings.shards
     return [i for i in range(shards) if not _shard_file(scratch, i, shards).exists()]
 
@@ -175,7 +180,7 @@ def _ensure_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bo
     Returns False when the merged artefact appeared meanwhile (a concurrent job finished it).
     """
     with _shard_lock(cache, request.key, shard):
-        if cache.lookup(STAGE, request.key) is not None:
+        if cache.lookup(STAGE, request.key, request.identity()) is not None:
             return False
         compute_shard(cache, request, shard, progress=progress)
     return True
@@ -202,24 +207,30 @@ def run_rwg_stage(
     """
     request.settings.validate()
     key = request.key
-    if not force and (found := cache.lookup(STAGE, key)) is not None:
+    if not force and (found := cache.lookup(STAGE, key, request.identity())) is not None:
         log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
         return found, True
     started = time.time()
     shards = request.settings.shards
     if force:
-        shutil.rmtree(cache.root / STAGE / f".partial-{key}", ignore_errors=True)
-    _ensure_shard(cache, request, request.settings.shard, progress=progress)
-    missing = missing_shards(cache, request) if cache.lookup(STAGE, key) is None else []
-    if missing and not compute_missing:
-        log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard, shards,
-                 request.label, missing)
-        return None, False
-    for shard in missing:
-        _ensure_shard(cache, request, shard, progress=progress)
+        # Recompute every shard in a scratch directory of this process's own, so that a job computing
+        # the same key meanwhile is never pulled out from under its feet; the artefact replaces the old
+        # one under the key's lock.
+        scratch = cache.scratch(STAGE, f"{key}-force-{os.getpid()}")
+        for shard in range(shards):
+            compute_shard(cache, request, shard, progress=progress, scratch=scratch)
+    else:
+        scratch = cache.scratch(STAGE, key)
+        _ensure_shard(cache, request, request.settings.shard, progress=progress)
+        missing = missing_shards(cache, request) if cache.lookup(STAGE, key, request.identity()) is None else []
+        if missing and not compute_missing:
+            log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard, shards,
+                     request.label, missing)
+            return None, False
+        for shard in missing:
+            _ensure_shard(cache, request, shard, progress=progress)
 
     def write(directory: Path) -> dict:
-        scratch = cache.scratch(STAGE, key)
         parts = [_load_chunk(_shard_file(scratch, i, shards)) for i in range(shards)]
         if any(p is None for p in parts):
             raise ArtefactError(f"rwg {key}: a shard became unreadable while merging; rerun to recompute it")
@@ -239,7 +250,7 @@ def run_rwg_stage(
         }
 
     def cleanup() -> None:
-        shutil.rmtree(cache.root / STAGE / f".partial-{key}", ignore_errors=True)
+        shutil.rmtree(scratch, ignore_errors=True)
 
     return cache.get_or_compute(STAGE, key, write, config=request.identity(), force=force, after=cleanup)
 
