@@ -6,6 +6,7 @@ pass over all P policies and their environments costs one batched matmul per lay
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
@@ -99,6 +100,10 @@ class PolicyBatch:
     weights: list[torch.Tensor]
     biases: list[torch.Tensor] | None
     indices: np.ndarray
+
+    def unit_outputs(self, outputs: np.ndarray, box: bool) -> np.ndarray:
+        """The outputs a backend decodes into actions (the outputs of :meth:`act`, tanh-squashed)."""
+        return outputs
 
     def __len__(self) -> int:
         return len(self.indices)
@@ -196,6 +201,17 @@ def sample_policies(
             torch.as_tensor(np.stack([p[i][1] for p in per_policy]), dtype=dtype)[:, None, :] for i in range(n_layers)
         ]
     return PolicyBatch(weights=weights, biases=biases, indices=np.asarray(indices))
+
+
+def select_policies(batch: PolicyBatch, rows: np.ndarray) -> PolicyBatch:
+    """The policies at positions ``rows`` of ``batch`` (copies of their parameters)."""
+    index = torch.from_numpy(np.asarray(rows, dtype=np.int64))
+    return dataclasses.replace(
+        batch,
+        weights=[w[index] for w in batch.weights],
+        biases=None if batch.biases is None else [b[index] for b in batch.biases],
+        indices=batch.indices[np.asarray(rows)],
+    )
 
 
 def select_policy(batch: PolicyBatch, i: int) -> PolicyBatch:

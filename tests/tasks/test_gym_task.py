@@ -33,7 +33,7 @@ def test_a_gym_task_reads_its_spaces_and_time_limit_from_the_registered_env(env_
     task = GymTask(env_id).validate()
     assert isinstance(task, Task)
     assert (task.observation_size, task.action_size, task.max_steps) == CLASSIC[env_id]
-    assert task.task_id == env_id and task.backends == ("gym",)
+    assert task.task_id == env_id and task.backends == ("kernel", "gym")  # classic-control kernels (issue 14)
     assert GymTask(env_id, max_steps=CLASSIC[env_id][2]).identity() == task.identity()  # null = the env's own
     assert GymTask(env_id, max_steps=7).identity() != task.identity()
 
@@ -125,7 +125,7 @@ def test_actions_fill_the_box_bounds_and_discrete_actions_are_the_argmax():
 
 def test_backends_a_task_lacks_are_refused():
     with pytest.raises(ConfigError, match=r"backend=batched is not available for task Pendulum-v1 \(allowed: auto, "
-                                          r"gym\)"):
+                                          r"kernel, gym\)"):
         resolve_backend(GymTask("Pendulum-v1"), "batched")
     assert resolve_backend(make_task("two_link"), "auto") == "batched"
 

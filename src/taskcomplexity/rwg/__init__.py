@@ -23,7 +23,7 @@ from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.dynamics import CONTACT_MODES
 from taskcomplexity.tasks.spec import TaskSpec
 
-BACKENDS = ("batched", "pybullet", "gym")
+BACKENDS = ("batched", "pybullet", "gym", "kernel")
 """Every RWG backend; a task lists those it supports in ``task.backends`` (fastest exact one first)."""
 AUTO = "auto"
 """``backend=auto``: the task's first backend."""
@@ -161,7 +161,7 @@ def chunk_size(task: Task, network: NetworkSpec, settings: RWGSettings, backend:
         return 16
     if backend == "gym":
         return max(1, ENVIRONMENTS_IN_FLIGHT // min(settings.episodes, ENVIRONMENTS_IN_FLIGHT))
-    width = max(network.hidden) + task.observation_size + 4 * task.action_size + 16
+    width = max(network.hidden, default=0) + task.observation_size + 4 * task.action_size + 16
     per_env = 8 * 4 * width  # float64, activations and temporaries
     envs = settings.chunk_memory_mb * 2**20 // per_env
     return max(1, min(envs // settings.episodes, 2048))
@@ -193,6 +193,10 @@ def simulate_chunk(
     backend = resolve_backend(task, backend)
     indices = np.arange(start, stop)
     policies = sample_policies(network, prior, task.observation_size, task.action_size, settings.seed, indices)
+    if backend == "kernel":  # issue 14: classic-control kernels (rwg/kernel_backend.py)
+        from taskcomplexity.rwg.kernel_backend import run_kernel
+
+        return ReturnChunk(policies.indices.copy(), *run_kernel(task, policies, settings.seed, settings.episodes))
     if backend == "gym":
         if rollout is not None:
             return ReturnChunk(policies.indices.copy(), *rollout.run(policies, settings.seed, settings.episodes))

@@ -67,7 +67,10 @@ class GymTask:
 
     @property
     def backends(self) -> tuple[str, ...]:
-        return ("gym",)
+        # issue 14: ids (and constructor arguments) with a classic-control kernel run on it by default
+        from taskcomplexity.tasks.classic import kernel_for
+
+        return ("kernel", "gym") if kernel_for(self.env_id, self.kwargs) is not None else ("gym",)
 
     def identity(self) -> dict:
         """The env id, its constructor arguments and the resolved episode limit (not the display name)."""

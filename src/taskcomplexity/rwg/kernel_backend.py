@@ -1,0 +1,103 @@
+"""The ``kernel`` RWG backend: gymnasium's classic-control tasks on batched numba kernels.
+
+All M episodes of all P policies of a chunk run at once: one batched policy forward pass
+(:meth:`PolicyBatch.act`, the same NumPy code the ``gym`` backend runs) and one parallel numba step
+(:func:`taskcomplexity.tasks.classic.kernels.step_all`) per environment step. Episode e of policy n
+starts from the state ``env.reset(seed=episode_reset_seeds(seed, n, e))`` would draw, so the returns
+equal the ``gym`` backend's (``tests/tasks/test_classic_kernels.py`` states the tolerance).
+
+Policies all of whose episodes have ended are dropped from the forward pass as they finish (random
+policies end their episodes at very different times).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from gymnasium import spaces
+
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.policies import PolicyBatch, select_policies
+from taskcomplexity.seeding import episode_reset_seeds
+from taskcomplexity.tasks.classic import ClassicKernel, kernel_for
+from taskcomplexity.tasks.classic.kernels import observe_all, step_all
+from taskcomplexity.tasks.step_kernel import prepare_kernels
+
+COMPACT_BELOW = 0.75
+"""Drop finished policies from the forward pass once fewer than this fraction of the rows run."""
+
+
+def task_kernel(task) -> ClassicKernel:
+    """The kernel of a task (a GymTask whose id and arguments have one)."""
+    kernel = kernel_for(getattr(task, "env_id", ""), getattr(task, "kwargs", {}))
+    if kernel is None:
+        raise ConfigError(f"backend=kernel: task {task.task_id} has no batched kernel (use backend=gym)")
+    return kernel
+
+
+def reset_seeds(seed: int, indices: np.ndarray, episodes: int, common_initial_states: bool = False) -> np.ndarray:
+    """(P, M) reset seeds: per (seed, n, e), or per (seed, e) for every policy (common initial states)."""
+    rows = np.zeros_like(indices) if common_initial_states else np.asarray(indices)
+    return episode_reset_seeds(seed, rows[:, None], np.arange(episodes)[None, :])
+
+
+def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_initial_states: bool = False):
+    """Every episode of every policy of the batch.
+
+    Parameters
+    ----------
+    task : GymTask with a kernel
+    policies : PolicyBatch of P policies (indices n)
+    seed : int
+        Run seed.
+    episodes : int
+        M.
+    common_initial_states : bool
+        Episode e of every policy starts from the same state.
+
+    Returns
+    -------
+    (returns, steps, success) : ndarrays (P, M) float64, int64, bool (success: always False, as the
+    classic-control envs report none).
+    """
+    kernel = task_kernel(task)
+    prepare_kernels()
+    params = kernel.params(task.kwargs)
+    n_pol = len(policies)
+    box = isinstance(task.action_space, spaces.Box)
+    seeds = reset_seeds(seed, policies.indices, episodes, common_initial_states)
+    state = kernel.initial_states(seeds).reshape(n_pol * episodes, kernel.state_size)
+    obs = np.empty((n_pol * episodes, task.observation_size))
+    observe_all(kernel.code, state, obs)
+    running = np.ones(n_pol * episodes, dtype=bool)
+    returns = np.zeros(n_pol * episodes)
+    steps = np.zeros(n_pol * episodes, dtype=np.int64)
+    all_returns = np.zeros((n_pol, episodes))
+    all_steps = np.zeros((n_pol, episodes), dtype=np.int64)
+
+    rows = np.arange(n_pol)  # the policies still in the forward pass, in the order of the arrays above
+    active = policies
+    with torch.no_grad():
+        for _ in range(task.max_steps):
+            outputs = active.act(torch.from_numpy(obs.reshape(rows.size, episodes, -1))).numpy()
+            outputs = active.unit_outputs(outputs, box).reshape(rows.size * episodes, -1)
+            if step_all(kernel.code, params, state, outputs, obs, running, returns, steps, task.max_steps) == 0:
+                break
+            alive = running.reshape(rows.size, episodes).any(axis=1)
+            if alive.sum() < COMPACT_BELOW * rows.size:
+                done = rows[~alive]
+                all_returns[done] = returns.reshape(rows.size, episodes)[~alive]
+                all_steps[done] = steps.reshape(rows.size, episodes)[~alive]
+                state, obs, running, returns, steps = (
+                    _keep(a, alive, episodes) for a in (state, obs, running, returns, steps)
+                )
+                active = select_policies(active, np.flatnonzero(alive))
+                rows = rows[alive]
+    all_returns[rows] = returns.reshape(rows.size, episodes)
+    all_steps[rows] = steps.reshape(rows.size, episodes)
+    return all_returns, all_steps, np.zeros((n_pol, episodes), dtype=bool)
+
+
+def _keep(array: np.ndarray, alive: np.ndarray, episodes: int) -> np.ndarray:
+    """The rows of the policies still alive of a (P·M, …) per-environment array."""
+    return array.reshape(alive.size, episodes, *array.shape[1:])[alive].reshape(-1, *array.shape[1:])

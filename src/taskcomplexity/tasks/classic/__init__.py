@@ -1,0 +1,113 @@
+"""Batched numba kernels of gymnasium's classic-control environments (the RWG ``kernel`` backend).
+
+:data:`KERNELS` maps each supported gymnasium id to a :class:`ClassicKernel`: its kernel code in
+:mod:`taskcomplexity.tasks.classic.kernels`, the constructor arguments it supports, and the reset
+draw. A reset reproduces ``env.reset(seed=s)`` exactly: gymnasium seeds ``np_random`` from ``s``
+(:func:`gymnasium.utils.seeding.np_random`) and draws the initial state from it; here the same
+generator makes the same draw, one episode at a time (M × N generators: ~20 µs each).
+
+Equivalence with gymnasium: ``tests/tasks/test_classic_kernels.py``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from gymnasium.utils.seeding import np_random
+
+from taskcomplexity.tasks.classic import kernels
+
+
+def _cartpole_reset(rng: np.random.Generator) -> np.ndarray:
+    return rng.uniform(low=-0.05, high=0.05, size=(4,))
+
+
+def _pendulum_reset(rng: np.random.Generator) -> np.ndarray:
+    high = np.array([np.pi, 1.0])
+    return rng.uniform(low=-high, high=high)
+
+
+def _mountain_car_reset(rng: np.random.Generator) -> np.ndarray:
+    return np.array([rng.uniform(low=-0.6, high=-0.4), 0.0, 0.0])
+
+
+def _acrobot_reset(rng: np.random.Generator) -> np.ndarray:
+    return rng.uniform(low=-0.1, high=0.1, size=(4,)).astype(np.float32).astype(np.float64)
+
+
+@dataclass(frozen=True)
+class ClassicKernel:
+    """One classic-control environment's kernel.
+
+    Attributes
+    ----------
+    code : int
+        Its branch in :func:`~taskcomplexity.tasks.classic.kernels.step_all`.
+    state_size : int
+        Width of the kernel's state vector.
+    reset : callable
+        ``reset(rng) -> ndarray (state_size,)``: the initial state drawn as the env's ``reset`` draws it.
+    arguments : mapping
+        Supported constructor arguments and their defaults, in the order of the kernel's params vector.
+    """
+
+    code: int
+    state_size: int
+    reset: Callable[[np.random.Generator], np.ndarray]
+    arguments: Mapping[str, float] = field(default_factory=dict)
+
+    def supports(self, kwargs: Mapping[str, Any]) -> bool:
+        """Whether every constructor argument is one the kernel models (with a plain number value)."""
+        return all(k in self.arguments and isinstance(v, (bool, int, float)) for k, v in kwargs.items())
+
+    def params(self, kwargs: Mapping[str, Any]) -> np.ndarray:
+        """The kernel's params vector for these constructor arguments."""
+        values = {**self.arguments, **kwargs}
+        if self.code == kernels.PENDULUM:
+            return np.array([3 * values["g"] / (2 * 1.0)])
+        return np.array([float(values[k]) for k in self.arguments] or [0.0])
+
+    def initial_states(self, reset_seeds: np.ndarray) -> np.ndarray:
+        """Initial states of episodes reset with ``reset_seeds``.
+
+        Parameters
+        ----------
+        reset_seeds : int ndarray, shape S
+
+        Returns
+        -------
+        ndarray, shape S + (state_size,), float64.
+        """
+        seeds = np.asarray(reset_seeds)
+        flat = seeds.reshape(-1)
+        out = np.empty((flat.size, self.state_size))
+        unique, inverse = np.unique(flat, return_inverse=True)
+        drawn = np.stack([self.reset(np_random(int(s))[0]) for s in unique]) if unique.size else out
+        out[:] = drawn[inverse.reshape(-1)]
+        return out.reshape((*seeds.shape, self.state_size))
+
+
+KERNELS: dict[str, ClassicKernel] = {
+    "CartPole-v0": ClassicKernel(kernels.CARTPOLE, 4, _cartpole_reset, {"sutton_barto_reward": False}),
+    "CartPole-v1": ClassicKernel(kernels.CARTPOLE, 4, _cartpole_reset, {"sutton_barto_reward": False}),
+    "Pendulum-v1": ClassicKernel(kernels.PENDULUM, 2, _pendulum_reset, {"g": 10.0}),
+    "MountainCar-v0": ClassicKernel(kernels.MOUNTAIN_CAR, 3, _mountain_car_reset, {"goal_velocity": 0}),
+    "MountainCarContinuous-v0": ClassicKernel(kernels.MOUNTAIN_CAR_CONTINUOUS, 3, _mountain_car_reset,
+                                              {"goal_velocity": 0}),
+    "Acrobot-v1": ClassicKernel(kernels.ACROBOT, 4, _acrobot_reset),
+}
+"""Gymnasium ids with a kernel (gymnasium 1.2.3's classic-control defaults)."""
+
+
+def kernel_for(env_id: str, kwargs: Mapping[str, Any] | None = None) -> ClassicKernel | None:
+    """The kernel of ``env_id`` built with ``kwargs``, or None when there is none."""
+    kernel = KERNELS.get(env_id)
+    if kernel is None or not kernel.supports(kwargs or {}):
+        return None
+    return kernel
+
+
+__all__ = ["KERNELS", "ClassicKernel", "kernel_for"]
