@@ -7,9 +7,11 @@ group option is reported in one line, not a traceback) and wrap their task funct
 
 from __future__ import annotations
 
+import errno
 import functools
 import logging
 import os
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -21,6 +23,8 @@ CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
 GROUPS = ("task", "arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "sac", "report", "study",
           "experiment")
 EXIT_BAD_INPUT = 2
+EXIT_DISK_FULL = 3
+EXIT_INTERRUPTED = 130
 
 log = logging.getLogger("taskcomplexity")
 
@@ -73,6 +77,65 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
                 continue
             if option not in allowed:
                 fail(f"{name}={option} is not a known option (allowed: {', '.join(allowed)})")
+    problem = unknown_keys(argv, dirs)
+    if problem:
+        fail(problem)
+
+
+FREE_FORM = ("task.kwargs",)
+"""Config nodes whose keys are the user's own (``+task.kwargs.noise=0.3``)."""
+
+
+def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
+    """One line naming the first override that sets a key no stage reads, or None.
+
+    Composes the config with every non-sweep override (what Hydra will do), so an unknown key
+    (``rwg.polices=10``) is named with the keys allowed beside it; a ``+key`` that adds a key is
+    accepted only inside a free-form node (:data:`FREE_FORM`).
+    """
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+    from omegaconf import OmegaConf
+    from omegaconf.errors import OmegaConfBaseException
+
+    lines = [a for a in argv[1:] if "=" in a and not a.startswith("-")]
+    try:
+        parsed = OverridesParser.create().parse_overrides(lines)
+    except HydraException as err:
+        return " ".join(str(err).split())
+    chosen = [o for o in parsed if not o.is_sweep_override()]
+    for override in chosen:
+        key = override.key_or_group
+        if override.is_add() and not any(key.startswith(f"{node}.") for node in FREE_FORM):
+            return (f"{override.input_line}: {key} is not a key any stage reads ('+' adds keys only to "
+                    f"{', '.join(FREE_FORM)}; remove it or check its spelling)")
+    searchpath = [o.input_line for o in chosen if o.key_or_group == "hydra.searchpath"]
+    settings = [o.input_line for o in chosen if not o.key_or_group.startswith("hydra")]
+    if GlobalHydra.instance().is_initialized():
+        return None
+    try:
+        with initialize_config_dir(config_dir=str(dirs[0]), version_base="1.3"):
+            compose("config", overrides=searchpath + settings)
+    except (HydraException, OmegaConfBaseException) as err:
+        cause = err.__cause__ if err.__cause__ is not None else err
+        full_key = getattr(cause, "full_key", None)
+        if full_key and "not in struct" in str(cause):
+            parent = full_key.rpartition(".")[0]
+            try:
+                with initialize_config_dir(config_dir=str(dirs[0]), version_base="1.3"):
+                    dotted = re.sub(r"\[(\d+)\]", r".\1", full_key)
+                    kept = [o.input_line for o in chosen if not o.key_or_group.startswith("hydra")
+                            and o.key_or_group != dotted]
+                    base = compose("config", overrides=searchpath + kept)
+                node = OmegaConf.select(base, parent) if parent else base
+                allowed = ", ".join(sorted(str(k) for k in node.keys()))
+            except Exception:  # noqa: BLE001 - the message stays useful without the list
+                allowed = "see the config group's file"
+            return f"{full_key} is not a known key (allowed: {allowed})"
+        return " ".join(str(cause).split())
+    return None
 
 
 def one_line_errors(fn):
@@ -80,7 +143,9 @@ def one_line_errors(fn):
 
     Only :class:`~taskcomplexity.errors.TaskComplexityError` (bad config values, unknown ids, damaged
     artefacts) is shortened; anything else is a bug and keeps its traceback (exit status 1).
-    ``HYDRA_FULL_ERROR=1`` shows the traceback of input errors too.
+    ``HYDRA_FULL_ERROR=1`` shows the traceback of input errors too. Two faults are not bugs and end
+    in one line too, with the finished work kept for the rerun: Ctrl-C (exit 130) and a full disk
+    (exit 3).
     """
 
     @functools.wraps(fn)
@@ -91,6 +156,16 @@ def one_line_errors(fn):
             if os.environ.get("HYDRA_FULL_ERROR") == "1":
                 raise
             fail(str(err))
+        except KeyboardInterrupt:
+            print("interrupted; rerun the same command to resume", file=sys.stderr, flush=True)
+            raise SystemExit(EXIT_INTERRUPTED) from None
+        except OSError as err:
+            if err.errno != errno.ENOSPC and "No space left on device" not in str(err):
+                raise
+            where = err.filename or "the outputs directory"
+            print(f"error: disk full while writing {where}; free some space and rerun the same command to resume",
+                  file=sys.stderr, flush=True)
+            raise SystemExit(EXIT_DISK_FULL) from None
 
     return wrapper
 
