@@ -2,11 +2,24 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
+import yaml
+from gymnasium import spaces
 
+from taskcomplexity.config import build
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.pipeline.keys import stage_key
+from taskcomplexity.pipeline.rwg_stage import STAGE, VERSION, RWGRequest
 from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.tasks.base import decode_actions
+from taskcomplexity.tasks.spec import make_task
+
+CONF = Path(__file__).resolve().parents[1] / "conf"
 
 
 @pytest.mark.parametrize("network", [NetworkSpec(), NetworkSpec(hidden=(64,), bias=True)])
@@ -27,3 +40,94 @@ def test_batched_forward_pass_equals_each_policy_on_its_own(network):
         # and the same policy alone, as the PyBullet reference runs it (BLAS may round differently per shape)
         alone = select_policy(batch, i).act(torch.from_numpy(x[i : i + 1, :7])).numpy()
         np.testing.assert_allclose(alone[0], actions[i, :7], rtol=0, atol=1e-12)
+
+
+# -- the original PIC/POIC family (issue 14) ----------------------------------------------------------
+FAMILY = [NetworkSpec(hidden=(), activation="tanh", output="linear"),
+          NetworkSpec(hidden=(4,), activation="tanh", output="linear", input_bias=True),
+          NetworkSpec(hidden=(64, 64), activation="tanh", output="linear")]
+PRIORS = [PriorSpec(), PriorSpec(kind="uniform"), PriorSpec(kind="xavier_normal", gain=5 / 3),
+          PriorSpec(kind="xavier_uniform", gain=5 / 3)]
+
+
+@pytest.mark.parametrize("network", FAMILY)
+@pytest.mark.parametrize("prior", PRIORS)
+def test_the_original_family_is_a_tanh_mlp_with_a_linear_output_and_an_appended_constant_input(network, prior):
+    obs_size, act_size, seed = 3, 2, 9
+    indices = np.arange(4)
+    batch = sample_policies(network, prior, obs_size, act_size, seed, indices)
+    x = np.random.default_rng(1).normal(0.0, 3.0, (len(indices), 50, obs_size))
+    outputs = batch.act(torch.from_numpy(x)).numpy()
+    for i, n in enumerate(indices):
+        layers = policy_parameters(network, prior, obs_size, act_size, seed, int(n))
+        h = np.concatenate([x[i], np.ones((50, 1))], axis=1) if network.input_bias else x[i]
+        assert layers[0][0].shape[1] == obs_size + int(network.input_bias)
+        for k, (weight, bias) in enumerate(layers):
+            assert bias is None
+            h = h @ weight.T
+            h = np.tanh(h) if k < len(layers) - 1 else h  # no output activation
+        np.testing.assert_allclose(outputs[i], h, rtol=1e-12, atol=1e-12)
+
+
+def test_xavier_priors_scale_by_their_gain():
+    fan_in, fan_out = 5, 64
+    for kind, draw in (("xavier_normal", lambda r, g: r.normal(0.0, g * np.sqrt(2.0 / (fan_in + fan_out)),
+                                                               (fan_out, fan_in))),
+                       ("xavier_uniform", lambda r, g: r.uniform(-g * np.sqrt(6.0 / (fan_in + fan_out)),
+                                                                 g * np.sqrt(6.0 / (fan_in + fan_out)),
+                                                                 (fan_out, fan_in)))):
+        for gain in (1.0, 5 / 3):
+            mine = PriorSpec(kind=kind, gain=gain).draw(np.random.default_rng(4), fan_in, fan_out)
+            np.testing.assert_array_equal(mine, draw(np.random.default_rng(4), gain))
+
+
+def test_a_linear_output_decodes_box_actions_as_high_times_tanh_and_discrete_ones_by_raw_argmax():
+    # decode_actions maps (−1, 1) affinely onto [low, high]: for symmetric bounds that is high·t up to one
+    # rounding of (t + 1) (|Δ| ≤ 2 ulp(high) in float64), invisible after the float32 cast but for ties.
+    batch = sample_policies(FAMILY[0], PriorSpec(), 3, 1, 0, np.arange(1))
+    raw = np.random.default_rng(2).normal(0.0, 3.0, (1, 10_000, 1))
+    for high in (1.0, 2.0):
+        box = spaces.Box(-high, high, (1,), np.float32)
+        unit = batch.unit_outputs(raw, box=True).reshape(-1, 1)
+        expected = (high * np.tanh(raw.reshape(-1, 1))).astype(np.float32)
+        np.testing.assert_allclose(decode_actions(box, unit), expected, rtol=2.0**-23, atol=2.0**-149)
+    saturated = np.array([[[20.0, 30.0, -5.0]]])  # tanh ties the first two outputs at 1.0 (argmax 0)
+    assert decode_actions(spaces.Discrete(3), batch.unit_outputs(saturated, box=False)[0])[0] == 1
+    assert np.tanh(20.0) == np.tanh(30.0) == 1.0
+
+
+def test_a_network_option_with_zero_units_is_one_line_naming_the_key():
+    with pytest.raises(ConfigError, match=r"^network.hidden must be a list of integers >= 1 .*got \[64, 0\]$"):
+        build(NetworkSpec, {"hidden": [64, 0], "activation": "tanh"}, "network")
+    with pytest.raises(ConfigError, match=r"network.activation must be one of \['relu', 'tanh'\], got 'sigmoid'"):
+        build(NetworkSpec, {"activation": "sigmoid"}, "network")
+    with pytest.raises(ConfigError, match=r"prior.gain must be > 0, got 0.0"):
+        build(PriorSpec, {"kind": "xavier_normal", "gain": 0.0}, "prior")
+
+
+def test_the_new_fields_at_their_defaults_keep_the_papers_cache_keys():
+    assert NetworkSpec().identity() == {"hidden": (32, 32), "bias": False}
+    assert PriorSpec(kind="uniform").identity() == {"kind": "uniform", "variance": 1.0, "low": -1.0, "high": 1.0}
+    request = RWGRequest(make_task("two_link", "dense"), NetworkSpec(hidden=(64, 64)), PriorSpec(),
+                         RWGSettings(policies=20, episodes=6, seed=1))
+    before = {  # the payload as it was hashed before the fields existed
+        "task": request.task.identity(), "network": {"hidden": [64, 64], "bias": False},
+        "prior": {"kind": "normal", "variance": 1.0, "low": -1.0, "high": 1.0},
+        "policies": 20, "episodes": 6, "seed": 1, "backend": "batched",
+    }
+    assert request.key == stage_key(STAGE, VERSION, before)
+    family = RWGRequest(request.task, FAMILY[2], PriorSpec(kind="xavier_normal", gain=5 / 3), request.settings)
+    assert family.identity()["network"]["activation"] == "tanh" and family.identity()["prior"]["gain"] == 5 / 3
+    assert family.key != request.key
+
+
+@pytest.mark.parametrize("name", ["pic_linear", "pic_h1_4", "pic_h1_32", "pic_h1_64", "pic_h2_4", "pic_h2_32",
+                                  "pic_h2_64"])
+def test_the_family_options_build(name):
+    node = yaml.safe_load((CONF / "network" / f"{name}.yaml").read_text())
+    network = build(NetworkSpec, node, "network")
+    assert (network.activation, network.output, network.bias, network.input_bias) == ("tanh", "linear", False, False)
+    assert len(network.hidden) == (0 if name == "pic_linear" else int(name[5])) and set(network.hidden) <= {4, 32, 64}
+    for prior in ("normal", "uniform", "xavier_normal_tanh", "xavier_uniform_tanh"):
+        spec = build(PriorSpec, yaml.safe_load((CONF / "prior" / f"{prior}.yaml").read_text()), "prior")
+        assert spec.gain == (5 / 3 if prior.endswith("tanh") else 1.0)

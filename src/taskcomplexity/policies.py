@@ -11,6 +11,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import torch
@@ -21,29 +22,68 @@ from taskcomplexity.seeding import policy_generator
 PRIOR_KINDS = ("normal", "uniform", "xavier_normal", "xavier_uniform")
 
 
+ACTIVATIONS = ("relu", "tanh")
+OUTPUTS = ("tanh", "linear")
+
+
+def _identity(spec, added: dict) -> dict:
+    """The fields of ``spec`` for cache keys; ``added`` fields (newer than the paper's runs) only when set.
+
+    Omitting a newer field at its default keeps every key computed before it existed.
+    """
+    fields = {f.name: getattr(spec, f.name) for f in dataclasses.fields(spec)}
+    return {k: v for k, v in fields.items() if k not in added or v != added[k]}
+
+
 @dataclass(frozen=True)
 class NetworkSpec:
-    """obs → hidden[0] → ReLU → … → n_act → tanh.
+    """obs [, 1] → hidden[0] → activation → … → n_act → output.
+
+    The paper's family (the default) is ReLU hidden layers and a tanh output; the original PIC/POIC
+    family (Furuta et al. 2021) is 0–2 tanh hidden layers, a linear output and, optionally, a constant
+    input 1.0 as its bias (``conf/network/pic_*.yaml``).
 
     Attributes
     ----------
     hidden : tuple of int
-        Hidden layer widths.
+        Hidden layer widths (empty: a linear policy).
     bias : bool
         Whether layers have biases. Biases follow PyTorch's default ``nn.Linear`` initialisation,
         U(±1/√fan_in), whatever the weight prior (as in the reference variants).
+    activation : {'relu', 'tanh'}
+        Hidden activation.
+    input_bias : bool
+        Append a constant 1.0 to the observation: the first layer's weights on it, drawn from the
+        prior like every other weight, are the network's bias (the original family's bias).
+    output : {'tanh', 'linear'}
+        Output activation. ``linear``: Discrete actions are the argmax of the raw outputs, Box actions
+        decode tanh(output), i.e. high·tanh(output) for symmetric bounds (as in the original family).
     """
 
     hidden: tuple[int, ...] = (32, 32)
     bias: bool = False
+    activation: str = "relu"
+    input_bias: bool = False
+    output: str = "tanh"
+
+    ADDED: ClassVar[dict] = {"activation": "relu", "input_bias": False, "output": "tanh"}
 
     def validate(self) -> None:
-        if not self.hidden or any(h < 1 for h in self.hidden):
-            raise ConfigError(f"network.hidden must be a non-empty list of integers >= 1, got {list(self.hidden)}")
+        if any(h < 1 for h in self.hidden):
+            raise ConfigError(f"network.hidden must be a list of integers >= 1 (empty: no hidden layer), "
+                              f"got {list(self.hidden)}")
+        if self.activation not in ACTIVATIONS:
+            raise ConfigError(f"network.activation must be one of {list(ACTIVATIONS)}, got {self.activation!r}")
+        if self.output not in OUTPUTS:
+            raise ConfigError(f"network.output must be one of {list(OUTPUTS)}, got {self.output!r}")
 
     def layer_sizes(self, observation_size: int, action_size: int) -> list[tuple[int, int]]:
-        sizes = [observation_size, *self.hidden, action_size]
+        sizes = [observation_size + int(self.input_bias), *self.hidden, action_size]
         return list(zip(sizes[:-1], sizes[1:], strict=True))
+
+    def identity(self) -> dict:
+        """The fields that key the returns (the newer ones only when they differ from their defaults)."""
+        return _identity(self, self.ADDED)
 
 
 @dataclass(frozen=True)
@@ -57,12 +97,22 @@ class PriorSpec:
         Variance of ``normal``.
     low, high : float
         Bounds of ``uniform``.
+    gain : float
+        Gain of the Xavier kinds: σ = gain·√(2/(fan_in+fan_out)), bound = gain·√(6/(fan_in+fan_out)).
+        1 is Glorot & Bengio's; 5/3 is PyTorch's gain for tanh, the original PIC/POIC family's.
     """
 
     kind: str = "normal"
     variance: float = 1.0
     low: float = -1.0
     high: float = 1.0
+    gain: float = 1.0
+
+    ADDED: ClassVar[dict] = {"gain": 1.0}
+
+    def identity(self) -> dict:
+        """The fields that key the returns (the newer ones only when they differ from their defaults)."""
+        return _identity(self, self.ADDED)
 
     def validate(self) -> None:
         if self.kind not in PRIOR_KINDS:
@@ -71,6 +121,8 @@ class PriorSpec:
             raise ConfigError(f"prior.variance must be > 0, got {self.variance}")
         if not self.low < self.high:
             raise ConfigError(f"prior.low must be < prior.high, got low={self.low}, high={self.high}")
+        if not self.gain > 0:
+            raise ConfigError(f"prior.gain must be > 0, got {self.gain}")
 
     def draw(self, rng: np.random.Generator, fan_in: int, fan_out: int) -> np.ndarray:
         """A (fan_out, fan_in) weight matrix (PyTorch's ``nn.Linear.weight`` layout)."""
@@ -80,8 +132,8 @@ class PriorSpec:
         if self.kind == "uniform":
             return rng.uniform(self.low, self.high, shape)
         if self.kind == "xavier_normal":
-            return rng.normal(0.0, math.sqrt(2.0 / (fan_in + fan_out)), shape)
-        bound = math.sqrt(6.0 / (fan_in + fan_out))
+            return rng.normal(0.0, self.gain * math.sqrt(2.0 / (fan_in + fan_out)), shape)
+        bound = self.gain * math.sqrt(6.0 / (fan_in + fan_out))
         return rng.uniform(-bound, bound, shape)
 
 
@@ -95,14 +147,26 @@ class PolicyBatch:
     biases : list of Tensor (P, 1, fan_out) or None
     indices : ndarray (P,)
         Sampling indices n of the policies.
+    activation, input_bias, output
+        As in :class:`NetworkSpec`.
     """
 
     weights: list[torch.Tensor]
     biases: list[torch.Tensor] | None
     indices: np.ndarray
+    activation: str = "relu"
+    input_bias: bool = False
+    output: str = "tanh"
 
     def unit_outputs(self, outputs: np.ndarray, box: bool) -> np.ndarray:
-        """The outputs a backend decodes into actions (the outputs of :meth:`act`, tanh-squashed)."""
+        """The outputs of :meth:`act` as a backend decodes them: in (−1, 1) for a Box action space.
+
+        A linear output is squashed by tanh for Box spaces (then decoded affinely onto [low, high],
+        which is high·tanh(output) for symmetric bounds); Discrete spaces take the argmax of the raw
+        outputs.
+        """
+        if box and self.output == "linear":
+            return np.tanh(outputs)
         return outputs
 
     def __len__(self) -> int:
@@ -118,9 +182,11 @@ class PolicyBatch:
 
         Returns
         -------
-        Tensor (P, E, act_size) in (−1, 1).
+        Tensor (P, E, act_size): in (−1, 1) for the tanh output, raw for the linear one.
         """
         x = observations.numpy()
+        if self.input_bias:
+            x = np.concatenate([x, np.ones(x.shape[:2] + (1,))], axis=2)
         out = np.empty(x.shape[:2] + (self.weights[-1].shape[-1],))
         n_pol = x.shape[0]
         # A few policies at a time, so that the activations stay in cache, on every core; every
@@ -145,7 +211,10 @@ class PolicyBatch:
                 h = np.matmul(h, w.numpy()[a:b])
                 if self.biases is not None:
                     h += self.biases[i].numpy()[a:b]
-                h = np.maximum(h, 0.0, out=h) if i < last else np.tanh(h, out=h)
+                if i < last:
+                    h = np.maximum(h, 0.0, out=h) if self.activation == "relu" else np.tanh(h, out=h)
+                elif self.output == "tanh":
+                    h = np.tanh(h, out=h)
             out[a:b] = h
 
 
@@ -200,7 +269,8 @@ def sample_policies(
         biases = [
             torch.as_tensor(np.stack([p[i][1] for p in per_policy]), dtype=dtype)[:, None, :] for i in range(n_layers)
         ]
-    return PolicyBatch(weights=weights, biases=biases, indices=np.asarray(indices))
+    return PolicyBatch(weights=weights, biases=biases, indices=np.asarray(indices), activation=network.activation,
+                       input_bias=network.input_bias, output=network.output)
 
 
 def select_policies(batch: PolicyBatch, rows: np.ndarray) -> PolicyBatch:
@@ -216,7 +286,8 @@ def select_policies(batch: PolicyBatch, rows: np.ndarray) -> PolicyBatch:
 
 def select_policy(batch: PolicyBatch, i: int) -> PolicyBatch:
     """The i-th policy of ``batch`` as a batch of one."""
-    return PolicyBatch(
+    return dataclasses.replace(
+        batch,
         weights=[w[i : i + 1] for w in batch.weights],
         biases=None if batch.biases is None else [b[i : i + 1] for b in batch.biases],
         indices=batch.indices[i : i + 1],

@@ -170,3 +170,15 @@ def test_kernel_returns_do_not_depend_on_chunking_and_truncate_at_the_tasks_limi
                     backend="kernel")
     np.testing.assert_array_equal(whole.returns, split.returns)
     assert whole.steps.max() <= 30 and not whole.success.any()
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v0", "Pendulum-v1", "MountainCarContinuous-v0"])
+def test_the_original_policy_family_gets_the_same_weights_and_returns_on_both_backends(env_id):
+    task = GymTask(env_id, max_steps=60)
+    network = NetworkSpec(hidden=(64, 64), activation="tanh", output="linear", input_bias=True)
+    prior = PriorSpec(kind="xavier_uniform", gain=5 / 3)
+    settings = RWGSettings(policies=4, episodes=3, seed=2)
+    kernel = run_rwg(task, network, prior, settings, backend="kernel")
+    gym = run_rwg(task, network, prior, settings, backend="gym")
+    np.testing.assert_allclose(kernel.returns, gym.returns, rtol=REWARD_RTOL)
+    np.testing.assert_array_equal(kernel.steps, gym.steps)

@@ -51,8 +51,9 @@ class RWGRequest:
         """
         identity = {
             "task": self.task.identity(),
-            "network": canonical(self.network),
-            "prior": canonical(self.prior),
+            # fields added for issue 14 enter only when set, so the paper's keys do not change
+            "network": canonical(self.network.identity()),
+            "prior": canonical(self.prior.identity()),
             "policies": self.settings.policies,
             "episodes": self.settings.episodes,
             "seed": self.settings.seed,

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from gymnasium import spaces
 
 from taskcomplexity.policies import PolicyBatch
 from taskcomplexity.seeding import episode_reset_seeds
@@ -100,6 +101,7 @@ class GymRollout:
         with torch.no_grad():
             while active.any():
                 outputs = policies.act(torch.from_numpy(obs.reshape(n_pol, width, -1))).numpy()
+                outputs = policies.unit_outputs(outputs, isinstance(space_out, spaces.Box))  # issue 14
                 actions = decode_actions(space_out, outputs.reshape(n_pol * width, -1))
                 for slot in np.flatnonzero(active):
                     p, e = slot_policy[slot], slot_episode[slot]
