@@ -20,6 +20,25 @@ from taskcomplexity.errors import ConfigError
 T = TypeVar("T")
 
 
+def setting(default: Any, *, result: bool = True) -> Any:
+    """A settings field that declares whether it changes the stage's result.
+
+    Cache keys hash exactly the fields declared ``result=True`` (the default for undeclared fields),
+    so the key follows from this one declaration (:func:`result_identity`).
+    """
+    if isinstance(default, (list, dict, set)):
+        raise TypeError("use an immutable default (tuple) for settings fields")
+    return dataclasses.field(default=default, metadata={"result": result})
+
+
+def result_identity(settings: Any) -> dict:
+    """The fields of a settings dataclass that change its stage's result, as plain values."""
+    from taskcomplexity.pipeline.keys import canonical
+
+    return {f.name: canonical(getattr(settings, f.name)) for f in dataclasses.fields(settings)
+            if f.metadata.get("result", True)}
+
+
 def plain(node: Any) -> Any:
     try:
         from omegaconf import DictConfig, ListConfig, OmegaConf

@@ -19,9 +19,9 @@ from typing import Any
 
 import pandas as pd
 
-from taskcomplexity.config import build
+from taskcomplexity.config import build, result_identity
 from taskcomplexity.pipeline.cache import Artefact, Cache
-from taskcomplexity.pipeline.keys import canonical, stage_key
+from taskcomplexity.pipeline.keys import stage_key
 
 log = logging.getLogger(__name__)
 
@@ -29,7 +29,6 @@ STAGE = "sac"
 VERSION = 1
 CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
-NOT_IN_KEY = ("enabled", "num_threads", "checkpoint_every")
 SKIPPED_ATTR = "sac_skipped"
 """``curves.attrs[SKIPPED_ATTR]``: {study task id: reason} of the tasks SAC did not run on."""
 
@@ -39,8 +38,7 @@ def sac_identity(task, settings, *, solved_return: float | None = None) -> dict:
 
     ``solved_return`` (the study's threshold for envs that report no success) enters only when set.
     """
-    values = canonical(settings)
-    identity = {"task": task.identity(), "settings": {k: v for k, v in values.items() if k not in NOT_IN_KEY}}
+    identity = {"task": task.identity(), "settings": result_identity(settings)}
     if solved_return is not None:
         identity["solved_return"] = float(solved_return)
     return identity

@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 
 from gymnasium import spaces
 
+from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -71,7 +72,7 @@ class SACSettings:
         torch intra-op threads during training (restored afterwards); 0 keeps torch's setting.
     """
 
-    enabled: bool = True
+    enabled: bool = setting(True, result=False)
     hidden_sizes: tuple[int, ...] = (256, 256)
     actor_lr: float = 1e-3
     critic_lr: float = 1e-3

@@ -1,0 +1,38 @@
+"""The SAC key follows from one declaration: every field that changes the curves is in it, no other."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from taskcomplexity.pipeline.keys import stage_key
+from taskcomplexity.pipeline.sac_stage import STAGE, VERSION, sac_identity
+from taskcomplexity.rl.settings import SACSettings
+from taskcomplexity.tasks.spec import make_task
+
+CHANGED = {  # a valid different value of every field
+    "enabled": False, "hidden_sizes": (64, 64), "actor_lr": 3e-4, "critic_lr": 3e-4, "gamma": 0.9, "alpha": 0.1,
+    "tau": 0.01, "loss_function": "smooth_l1", "batch_size": 32, "buffer_size": 5000, "updates_per_step": 2,
+    "collect_steps": 20, "warmup_steps": 200, "eval_every": 200, "eval_episodes": 3, "total_steps": 4000,
+    "seeds": (0, 1), "train_seeds_together": False, "her": True, "her_ratio": 0.5, "her_strategy": "final",
+    "checkpoint_every": 400, "num_threads": 2,
+}
+NOT_A_RESULT = {"enabled"}  # read by the study only: it decides whether SAC runs, not what it computes
+
+
+def key(settings: SACSettings) -> str:
+    return stage_key(STAGE, VERSION, sac_identity(make_task("two_link", "sparse"), settings))
+
+
+def test_every_field_that_changes_the_curves_changes_the_key_and_no_other_does():
+    base = SACSettings(total_steps=2000, warmup_steps=100, eval_every=100, checkpoint_every=100)
+    assert set(CHANGED) == {f.name for f in dataclasses.fields(SACSettings)}  # a new field must be declared here
+    for name, value in CHANGED.items():
+        changed = dataclasses.replace(base, **{name: value})
+        assert (key(changed) == key(base)) == (name in NOT_A_RESULT), name
+
+
+def test_checkpoint_every_and_num_threads_are_in_the_key():
+    # Both change the curves (checkpoints re-seed and reset the envs; thread counts change float reductions).
+    base = SACSettings(total_steps=2000)
+    assert key(dataclasses.replace(base, checkpoint_every=100)) != key(dataclasses.replace(base, checkpoint_every=300))
+    assert key(dataclasses.replace(base, num_threads=1)) != key(dataclasses.replace(base, num_threads=2))
