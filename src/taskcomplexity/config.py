@@ -32,11 +32,8 @@ def setting(default: Any, *, result: bool = True) -> Any:
 
 
 def result_identity(settings: Any) -> dict:
-    """The fields of a settings dataclass that change its stage's result, as plain values."""
-    from taskcomplexity.pipeline.keys import canonical
-
-    return {f.name: canonical(getattr(settings, f.name)) for f in dataclasses.fields(settings)
-            if f.metadata.get("result", True)}
+    """The fields of a settings dataclass that change its stage's result (name → value)."""
+    return {f.name: getattr(settings, f.name) for f in dataclasses.fields(settings) if f.metadata.get("result", True)}
 
 
 def plain(node: Any) -> Any:
