@@ -174,3 +174,36 @@ def test_a_mujoco_id_needs_the_mujoco_extra_or_runs_with_it():
         return
     task = GymTask("Ant-v5").validate()
     assert task.action_size == 8 and task.max_steps == 1000
+
+
+def test_an_edit_to_the_envs_source_makes_it_a_new_task(tmp_path, monkeypatch):
+    package = tmp_path / "edited_lab"
+    package.mkdir()
+    source = textwrap.dedent("""
+        import gymnasium
+        import numpy as np
+        from gymnasium import spaces
+
+        class Still(gymnasium.Env):
+            observation_space = spaces.Box(-1.0, 1.0, (1,), dtype=np.float64)
+            action_space = spaces.Discrete(2)
+
+            def reset(self, *, seed=None, options=None):
+                return np.zeros(1), {}
+
+            def step(self, action):
+                return np.zeros(1), REWARD, False, False, {}
+
+        REWARD = 1.0
+        if "EditedStill-v0" not in gymnasium.registry:
+            gymnasium.register("EditedStill-v0", entry_point="edited_lab:Still", max_episode_steps=3)
+    """)
+    (package / "__init__.py").write_text(source)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    before = GymTask("edited_lab:EditedStill-v0").identity()
+    (package / "__init__.py").write_text(source.replace("REWARD = 1.0", "REWARD = 2.0"))
+    after = GymTask("edited_lab:EditedStill-v0").identity()
+    assert before["source"] and before["source"] != after["source"]
+    assert {k: v for k, v in before.items() if k != "source"} == {k: v for k, v in after.items() if k != "source"}
+    del gymnasium.registry["EditedStill-v0"]
+    sys.modules.pop("edited_lab", None)

@@ -9,10 +9,14 @@ from __future__ import annotations
 
 import difflib
 import functools
+import hashlib
 import importlib
+import importlib.util
+import inspect
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import gymnasium
@@ -73,8 +77,10 @@ class GymTask:
         return ("kernel", "gym") if kernel_for(self.env_id, self.kwargs) is not None else ("gym",)
 
     def identity(self) -> dict:
-        """The env id, its constructor arguments and the resolved episode limit (not the display name)."""
-        return {"env_id": self.env_id, "kwargs": dict(sorted(self.kwargs.items())), "max_steps": self.max_steps}
+        """The env id, its constructor arguments, the resolved episode limit and a digest of the source file
+        that defines the env (so an edit to a researcher's env is a new task); not the display name."""
+        return {"env_id": self.env_id, "kwargs": dict(sorted(self.kwargs.items())), "max_steps": self.max_steps,
+                "source": _source_digest(self.spec)}
 
     # -- what the env is ---------------------------------------------------------------------
     @functools.cached_property
@@ -147,6 +153,19 @@ def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
         except ImportError as err:
             raise ConfigError(f"task.env_id={env_id} needs MuJoCo, which is not installed: {MUJOCO_EXTRA}") from err
     return spec
+
+
+def _source_digest(spec: gymnasium.envs.registration.EnvSpec) -> str:
+    """SHA-256 (16 hex digits) of the file that defines the env's entry point ("" when there is none)."""
+    entry = spec.entry_point
+    try:
+        if isinstance(entry, str):
+            origin = importlib.util.find_spec(entry.partition(":")[0]).origin
+        else:
+            origin = inspect.getsourcefile(entry)
+        return hashlib.sha256(Path(origin).read_bytes()).hexdigest()[:16]
+    except (TypeError, AttributeError, OSError, ImportError, ValueError):
+        return ""
 
 
 def _dependency_message(env_id: str, err: Exception) -> str:
