@@ -179,7 +179,8 @@ def seeded_outputs(tmp_path_factory):
     ("script", "override", "message"),
     [
         (RWG, "arm=three_link", "error: arm=three_link is not a known option (allowed: one_link_1m0, one_link_1m65, two_link, two_link_obstacle)"),
-        (RWG, "prior=cauchy", "error: prior=cauchy is not a known option (allowed: normal, normal_var2, uniform, xavier_normal, xavier_uniform)"),
+        (RWG, "prior=cauchy", "error: prior=cauchy is not a known option (allowed: normal, normal_var2, uniform, xavier_normal, xavier_normal_tanh, xavier_uniform, "
+         "xavier_uniform_tanh)"),
         (RWG, "rwg.policies=1", "error: rwg.policies must be an integer >= 2 (N), got 1"),
         (RWG, "rwg.episodes=1", "error: rwg.episodes must be an integer >= 2 (M), got 1"),
         (RWG, "arm.links.0.length=-0.5", "error: arm.links[0].length must be a finite number > 0, got -0.5"),

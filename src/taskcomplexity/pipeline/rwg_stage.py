@@ -61,6 +61,8 @@ class RWGRequest:
         }
         if self.models_contacts:
             identity["contacts"] = self.settings.contacts
+        if self.settings.common_initial_states:  # issue 14: keyed only when set (default keys unchanged)
+            identity["common_initial_states"] = True
         return identity
 
     @property

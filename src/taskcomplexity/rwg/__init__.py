@@ -61,6 +61,9 @@ class RWGSettings:
         episode that reaches the block on the PyBullet reference (exact, PyBullet's speed);
         ``model`` integrates them with the batched contact model (:mod:`taskcomplexity.tasks.contact`:
         PyBullet's distribution of outcomes, at the batched backend's speed).
+    common_initial_states : bool
+        Episode e of every policy starts from the same state (reset by (seed, e) only: the original
+        PIC/POIC protocol's common random numbers); false: by (seed, n, e).
     """
 
     policies: int = 1000
@@ -71,6 +74,7 @@ class RWGSettings:
     shard: int = 0
     shards: int = 1
     contacts: str = "pybullet"
+    common_initial_states: bool = False  # issue 14
 
     def validate(self) -> None:
         if self.policies < 2:
@@ -140,15 +144,15 @@ class ReturnChunk:
         )
 
 
-def initial_states(task: TaskSpec, seed: int, policies: np.ndarray, episodes: int):
-    """Reset states of every (policy, episode) pair.
+def initial_states(task: TaskSpec, seed: int, policies: np.ndarray, episodes: int, common: bool = False):
+    """Reset states of every (policy, episode) pair (``common``: policy 0's for every policy).
 
     Returns
     -------
     joint_angles : ndarray (P, M, dof)
     target : ndarray (P, M, 2)
     """
-    n = np.asarray(policies)[:, None]
+    n = np.asarray(policies)[:, None] * (not common)
     e = np.arange(episodes)[None, :]
     return mechanics.initial_state(task.arm, episode_uniforms(seed, n, e))
 
@@ -196,13 +200,17 @@ def simulate_chunk(
     if backend == "kernel":  # issue 14: classic-control kernels (rwg/kernel_backend.py)
         from taskcomplexity.rwg.kernel_backend import run_kernel
 
-        return ReturnChunk(policies.indices.copy(), *run_kernel(task, policies, settings.seed, settings.episodes))
+        return ReturnChunk(policies.indices.copy(), *run_kernel(task, policies, settings.seed, settings.episodes,
+                                                                settings.common_initial_states))
     if backend == "gym":
         if rollout is not None:
-            return ReturnChunk(policies.indices.copy(), *rollout.run(policies, settings.seed, settings.episodes))
+            return ReturnChunk(policies.indices.copy(), *rollout.run(policies, settings.seed, settings.episodes,
+                                                                     settings.common_initial_states))
         with GymRollout(task) as own:
-            return ReturnChunk(policies.indices.copy(), *own.run(policies, settings.seed, settings.episodes))
-    joint_angles, target = initial_states(task, settings.seed, indices, settings.episodes)
+            return ReturnChunk(policies.indices.copy(), *own.run(policies, settings.seed, settings.episodes,
+                                                                 settings.common_initial_states))
+    joint_angles, target = initial_states(task, settings.seed, indices, settings.episodes,
+                                          settings.common_initial_states)
     if backend == "batched":
         return _simulate_batched(task, policies, joint_angles, target, settings.contacts, progress)
     return _simulate_pybullet(task, policies, joint_angles, target)

@@ -59,7 +59,7 @@ class GymRollout:
             self.envs.append(self.task.make_env())
         return self.envs[:size]
 
-    def run(self, policies: PolicyBatch, seed: int, episodes: int):
+    def run(self, policies: PolicyBatch, seed: int, episodes: int, common_initial_states: bool = False):
         """Every episode of every policy of the batch.
 
         Parameters
@@ -69,6 +69,8 @@ class GymRollout:
             Run seed (reset seeds of the episodes).
         episodes : int
             M.
+        common_initial_states : bool
+            Reset episode e of every policy with policy 0's seed (seed, 0, e).
 
         Returns
         -------
@@ -80,7 +82,8 @@ class GymRollout:
         n_pol = len(policies)
         width = slots_per_policy(n_pol, episodes)
         envs = self._pool(n_pol * width)
-        seeds = episode_reset_seeds(seed, policies.indices[:, None], np.arange(episodes)[None, :])
+        rows = policies.indices[:, None] * (not common_initial_states)  # issue 14: common initial states
+        seeds = episode_reset_seeds(seed, rows, np.arange(episodes)[None, :])
         returns = np.zeros((n_pol, episodes))
         steps = np.zeros((n_pol, episodes), dtype=np.int64)
         success = np.zeros((n_pol, episodes), dtype=bool)

@@ -37,8 +37,8 @@ def task_kernel(task) -> ClassicKernel:
 
 def reset_seeds(seed: int, indices: np.ndarray, episodes: int, common_initial_states: bool = False) -> np.ndarray:
     """(P, M) reset seeds: per (seed, n, e), or per (seed, e) for every policy (common initial states)."""
-    rows = np.zeros_like(indices) if common_initial_states else np.asarray(indices)
-    return episode_reset_seeds(seed, rows[:, None], np.arange(episodes)[None, :])
+    rows = np.asarray(indices)[:, None] * (not common_initial_states)
+    return episode_reset_seeds(seed, rows, np.arange(episodes)[None, :])
 
 
 def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_initial_states: bool = False):
