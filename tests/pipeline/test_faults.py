@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys
@@ -17,7 +16,6 @@ from taskcomplexity.pipeline.rwg_stage import RWGRequest, load_returns, run_rwg_
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.tasks.gym_task import GymTask
-from taskcomplexity.tasks.spec import make_task
 
 ROOT = Path(__file__).resolve().parents[2]
 RWG = str(ROOT / "pipelines" / "rwg.py")
@@ -61,21 +59,44 @@ def small_disk(tmp_path):
 
 
 def test_a_full_disk_is_one_line_naming_the_path_and_the_rerun_resumes(small_disk, tmp_path):
-    filler = small_disk / "filler"
-    filler.write_bytes(b"\0" * (1800 * 1024))
     outputs = small_disk / "outputs"
-    args = [sys.executable, RWG, "arm=one_link_1m0", "rwg.policies=400", "rwg.episodes=50", "rwg.chunk_policies=100",
-            f"paths.outputs={outputs}"]
-    full = subprocess.run(args, cwd=tmp_path, capture_output=True, text=True, timeout=300)
-    assert full.returncode == 3
-    assert "Traceback" not in full.stderr
-    last = full.stderr.rstrip().splitlines()[-1]
+    args = [sys.executable, RWG, "task=cartpole", "backend=gym", "rwg.policies=40", "rwg.episodes=4",
+            "rwg.chunk_policies=2", f"paths.outputs={outputs}"]
+    job = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not list(outputs.glob("cache/rwg/.partial-*/chunk-*.npz")):
+        time.sleep(0.02)
+    filler = small_disk / "filler"  # the disk fills up while the run is under way
+    with open(filler, "wb", buffering=0) as handle:
+        try:
+            while True:
+                handle.write(b"\0" * 4096)
+        except OSError:
+            pass
+    _, stderr = job.communicate(timeout=300)
+    assert job.returncode == 3, stderr[-2000:]
+    assert "Traceback" not in stderr
+    last = stderr.rstrip().splitlines()[-1]
     assert last.startswith("error: disk full while writing ") and "rerun the same command to resume" in last
     filler.unlink()
     rerun = subprocess.run(args, cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert rerun.returncode == 0, rerun.stderr[-2000:]
-    request = RWGRequest(make_task("one_link_1m0", "dense"), NetworkSpec(), PriorSpec(),
-                         RWGSettings(policies=400, episodes=50))
+    assert "resuming" in rerun.stdout + rerun.stderr
+    request = RWGRequest(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(policies=40, episodes=4),
+                         backend="gym")
     fresh, _ = run_rwg_stage(Cache(tmp_path / "fresh"), request)
     np.testing.assert_array_equal(load_returns(Cache(outputs / "cache").lookup("rwg", request.key)), load_returns(fresh))
-    assert os.path.getsize(outputs / "cache" / "rwg" / request.key / "returns.parquet") > 0
+
+
+def test_a_plan_beyond_the_machine_is_refused_up_front_with_its_estimate(small_disk, tmp_path):
+    huge = subprocess.run([sys.executable, RWG, "rwg.policies=1e12", f"paths.outputs={tmp_path / 'out'}"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert huge.returncode == 2
+    assert huge.stderr.strip().splitlines() == [huge.stderr.strip().splitlines()[-1]]
+    assert "rwg.policies × rwg.episodes = 1,000,000,000,000 × 100 needs about" in huge.stderr
+    assert "GB of memory" in huge.stderr
+    outputs = small_disk / "outputs"  # 2 MB: 400 × 200 episodes need about 3.8 MB
+    big = subprocess.run([sys.executable, RWG, "rwg.policies=400", "rwg.episodes=200", f"paths.outputs={outputs}"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert big.returncode == 2 and "GB of disk under" in big.stderr and "are free" in big.stderr
+    assert not list((outputs / "cache").rglob("*.npz")) and not list((outputs / "cache").rglob("*.parquet"))

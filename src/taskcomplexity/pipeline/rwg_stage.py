@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 from filelock import FileLock
 
-from taskcomplexity.errors import ArtefactError
+from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.pipeline.cache import Artefact, Cache, remove_orphans
 from taskcomplexity.pipeline.keys import canonical, stage_key
 from taskcomplexity.policies import NetworkSpec, PriorSpec
@@ -189,6 +189,30 @@ def _ensure_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bo
     return True
 
 
+BYTES_IN_MEMORY_PER_EPISODE = 64
+"""Peak resident bytes per episode while a shard is merged into the tidy table (arrays + frame + writer)."""
+BYTES_ON_DISK_PER_EPISODE = 48
+"""Peak disk use per episode: saved chunks and the shard file (17 B each, uncompressed) and the parquet artefact."""
+
+
+def check_plan(cache: Cache, request: RWGRequest) -> None:
+    """Refuse, before any work, a run whose memory or disk need is beyond this machine, with the estimate."""
+    episodes = request.settings.policies * request.settings.episodes
+    memory = episodes * BYTES_IN_MEMORY_PER_EPISODE
+    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if memory > 0.8 * total:
+        raise ConfigError(
+            f"rwg.policies × rwg.episodes = {request.settings.policies:,} × {request.settings.episodes:,} needs about "
+            f"{memory / 2**30:,.1f} GB of memory, this machine has {total / 2**30:,.1f} GB (lower N or M)")
+    cache.root.mkdir(parents=True, exist_ok=True)
+    disk = episodes * BYTES_ON_DISK_PER_EPISODE
+    free = shutil.disk_usage(cache.root).free
+    if disk > free:
+        raise ConfigError(
+            f"rwg.policies × rwg.episodes = {request.settings.policies:,} × {request.settings.episodes:,} needs about "
+            f"{disk / 2**30:,.2f} GB of disk under {cache.root}, {free / 2**30:,.2f} GB are free")
+
+
 def run_rwg_stage(
     cache: Cache,
     request: RWGRequest,
@@ -213,6 +237,7 @@ def run_rwg_stage(
     if not force and (found := cache.lookup(STAGE, key, request.identity())) is not None:
         log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
         return found, True
+    check_plan(cache, request)
     started = time.time()
     shards = request.settings.shards
     if force:
