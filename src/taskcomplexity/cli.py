@@ -55,18 +55,12 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
     override adds (a researcher's own studies and task presets).
     """
     dirs = search_dirs(argv, conf_dir)
+    check_output_paths(argv)
     for arg in argv[1:]:
         if arg.startswith("-") or "=" not in arg:
             continue
         name, _, value = arg.partition("=")
         name = name.lstrip("+~")
-        if name == "paths.outputs" and "," not in value and "$" not in value:
-            from taskcomplexity.pipeline.cache import ensure_writable
-
-            try:
-                ensure_writable(Path(value))
-            except TaskComplexityError as err:
-                fail(str(err))
         if name not in GROUPS or not (conf_dir / name).is_dir():
             continue
         allowed = sorted({p.stem for d in dirs for p in (d / name).glob("*.yaml")})
@@ -80,6 +74,26 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
     problem = unknown_keys(argv, dirs)
     if problem:
         fail(problem)
+
+
+def check_output_paths(argv: list[str]) -> None:
+    """Refuse, in one line, output and cache paths that cannot be written, however they are given
+    (``paths.outputs=…``, ``paths.cache=…`` or ``TASKCOMPLEXITY_OUTPUTS``), before Hydra creates its run
+    directory there."""
+    from taskcomplexity.pipeline.cache import ensure_writable
+
+    given = dict(arg.lstrip("+~").split("=", 1) for arg in argv[1:] if "=" in arg and not arg.startswith("-"))
+    outputs = given.get("paths.outputs") or os.environ.get("TASKCOMPLEXITY_OUTPUTS") or "outputs"
+    checks = [("paths.outputs", outputs)]
+    if "paths.cache" in given:
+        checks.append(("paths.cache", given["paths.cache"]))
+    for key, value in checks:
+        if "," in value or "$" in value:  # a sweep or an interpolation: Hydra resolves it per job
+            continue
+        try:
+            ensure_writable(Path(value), key=key)
+        except TaskComplexityError as err:
+            fail(str(err))
 
 
 FREE_FORM = ("task.kwargs",)
@@ -327,6 +341,6 @@ def run_name(cfg: Any) -> str:
 def cache_from_config(cfg: Any):
     from taskcomplexity.pipeline.cache import Cache, ensure_writable
 
-    root = Path(cfg.paths.outputs)
-    ensure_writable(root)
+    ensure_writable(Path(cfg.paths.outputs))
+    ensure_writable(Path(cfg.paths.cache), key="paths.cache")
     return Cache(Path(cfg.paths.cache))

@@ -64,3 +64,17 @@ def test_unknown_keys_and_additions_no_stage_reads_are_one_line_exit_2(tmp_path)
         assert done.returncode == 2, override
         assert done.stderr.strip().splitlines() == [message]
     assert not (tmp_path / "cache").exists()
+
+
+def test_unwritable_output_and_cache_paths_are_one_line_however_given(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    by_env = run(["experiment=smoke"], tmp_path, env={"TASKCOMPLEXITY_OUTPUTS": str(blocker / "out")})
+    assert by_env.returncode == 2
+    assert by_env.stderr.strip().splitlines() == [f"error: paths.outputs: cannot write to {blocker / 'out'} "
+                                                  "(Not a directory)"]
+    by_key = run(["experiment=smoke", f"paths.outputs={tmp_path / 'ok'}", f"paths.cache={blocker / 'cache'}"],
+                 tmp_path)
+    assert by_key.returncode == 2
+    assert by_key.stderr.strip().splitlines() == [f"error: paths.cache: cannot write to {blocker / 'cache'} "
+                                                  "(Not a directory)"]

@@ -65,15 +65,15 @@ class Artefact:
         return self.path / name
 
 
-def ensure_writable(root: Path) -> None:
-    """Fail early, with the path named, when the output directory cannot be written."""
+def ensure_writable(root: Path, key: str = "paths.outputs") -> None:
+    """Fail early, naming the config ``key`` and the path, when a directory cannot be written."""
     try:
         root.mkdir(parents=True, exist_ok=True)
         probe = root / f".write-probe-{uuid.uuid4().hex}"
         probe.write_text("")
         probe.unlink()
     except OSError as err:
-        raise ArtefactError(f"paths.outputs: cannot write to {root} ({err.strerror or err})") from err
+        raise ArtefactError(f"{key}: cannot write to {root} ({err.strerror or err})") from err
 
 
 def file_digest(path: Path) -> str:
