@@ -182,3 +182,12 @@ def test_the_original_policy_family_gets_the_same_weights_and_returns_on_both_ba
     gym = run_rwg(task, network, prior, settings, backend="gym")
     np.testing.assert_allclose(kernel.returns, gym.returns, rtol=REWARD_RTOL)
     np.testing.assert_array_equal(kernel.steps, gym.steps)
+
+
+def test_compaction_packs_running_episodes_first_and_drops_finished_policies():
+    from taskcomplexity.rwg.kernel_backend import _compaction
+
+    running = np.array([[False, True, False, True], [False, False, False, False], [True, False, False, False]])
+    rows, slots = _compaction(running)
+    np.testing.assert_array_equal(rows, [0, 2])
+    np.testing.assert_array_equal(slots, [[1, 3], [8, 9]])  # row 2 padded with a finished slot

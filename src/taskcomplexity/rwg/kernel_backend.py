@@ -6,8 +6,9 @@ All M episodes of all P policies of a chunk run at once: one batched policy forw
 starts from the state ``env.reset(seed=episode_reset_seeds(seed, n, e))`` would draw, so the returns
 equal the ``gym`` backend's (``tests/tasks/test_classic_kernels.py`` states the tolerance).
 
-Policies all of whose episodes have ended are dropped from the forward pass as they finish (random
-policies end their episodes at very different times).
+Random policies end their episodes at very different times: once fewer than COMPACT_BELOW of the
+slots run, the running episodes of each policy are packed to the front and the forward pass shrinks to
+the policies that still run, over as many slots as the busiest of them needs.
 """
 
 from __future__ import annotations
@@ -72,32 +73,48 @@ def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_ini
     running = np.ones(n_pol * episodes, dtype=bool)
     returns = np.zeros(n_pol * episodes)
     steps = np.zeros(n_pol * episodes, dtype=np.int64)
-    all_returns = np.zeros((n_pol, episodes))
-    all_steps = np.zeros((n_pol, episodes), dtype=np.int64)
+    all_returns = np.zeros(n_pol * episodes)
+    all_steps = np.zeros(n_pol * episodes, dtype=np.int64)
 
-    rows = np.arange(n_pol)  # the policies still in the forward pass, in the order of the arrays above
+    # The arrays above are laid out (policy rows R, slots W): slot (r, w) runs episode index[r·W + w].
+    index = np.arange(n_pol * episodes)
+    width = episodes
     active = policies
     with torch.no_grad():
         for _ in range(task.max_steps):
-            outputs = active.act(torch.from_numpy(obs.reshape(rows.size, episodes, -1))).numpy()
-            outputs = active.unit_outputs(outputs, box).reshape(rows.size * episodes, -1)
-            if step_all(kernel.code, params, state, outputs, obs, running, returns, steps, task.max_steps) == 0:
+            outputs = active.act(torch.from_numpy(obs.reshape(len(active), width, -1))).numpy()
+            outputs = active.unit_outputs(outputs, box).reshape(len(active) * width, -1)
+            alive = step_all(kernel.code, params, state, outputs, obs, running, returns, steps, task.max_steps)
+            if alive == 0:
                 break
-            alive = running.reshape(rows.size, episodes).any(axis=1)
-            if alive.sum() < COMPACT_BELOW * rows.size:
-                done = rows[~alive]
-                all_returns[done] = returns.reshape(rows.size, episodes)[~alive]
-                all_steps[done] = steps.reshape(rows.size, episodes)[~alive]
-                state, obs, running, returns, steps = (
-                    _keep(a, alive, episodes) for a in (state, obs, running, returns, steps)
+            if alive < COMPACT_BELOW * running.size:
+                all_returns[index], all_steps[index] = returns, steps
+                rows, slots = _compaction(running.reshape(len(active), width))
+                state, obs, running, returns, steps, index = (
+                    a[slots.ravel()] for a in (state, obs, running, returns, steps, index)
                 )
-                active = select_policies(active, np.flatnonzero(alive))
-                rows = rows[alive]
-    all_returns[rows] = returns.reshape(rows.size, episodes)
-    all_steps[rows] = steps.reshape(rows.size, episodes)
-    return all_returns, all_steps, np.zeros((n_pol, episodes), dtype=bool)
+                active, width = select_policies(active, rows), slots.shape[1]
+    all_returns[index], all_steps[index] = returns, steps
+    shape = (n_pol, episodes)
+    return all_returns.reshape(shape), all_steps.reshape(shape), np.zeros(shape, dtype=bool)
 
 
-def _keep(array: np.ndarray, alive: np.ndarray, episodes: int) -> np.ndarray:
-    """The rows of the policies still alive of a (P·M, …) per-environment array."""
-    return array.reshape(alive.size, episodes, *array.shape[1:])[alive].reshape(-1, *array.shape[1:])
+def _compaction(running: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pack the running episodes of each policy row to the front and drop rows that have none.
+
+    Parameters
+    ----------
+    running : ndarray (R, W) bool
+
+    Returns
+    -------
+    rows : ndarray (R',) int
+        The policy rows kept.
+    slots : ndarray (R', W') int
+        Flat positions (r·W + w) of the new layout's slots: each kept row's running episodes first,
+        padded with finished ones up to W', the largest number running in a row.
+    """
+    counts = running.sum(axis=1)
+    rows = np.flatnonzero(counts)
+    order = np.argsort(~running[rows], axis=1, kind="stable")[:, : counts.max()]
+    return rows, rows[:, None] * running.shape[1] + order
