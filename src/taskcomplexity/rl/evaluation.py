@@ -11,7 +11,7 @@ from tensordict.nn import TensorDictModuleBase
 from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from taskcomplexity.rl.seeding import derive_seed
+from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.goal_env import goal_distance
 from taskcomplexity.tasks.spec import TaskSpec

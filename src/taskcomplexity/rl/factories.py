@@ -32,7 +32,7 @@ from torchrl.objectives import SACLoss, SoftUpdate, ValueEstimators
 
 from taskcomplexity.rl.her import make_her_replay_buffer
 from taskcomplexity.rl.layers import SeedBatchedLinear, reset_seed_parameters
-from taskcomplexity.rl.seeding import derive_seed
+from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task, encode_observations
 from taskcomplexity.tasks.goal_env import GoalReachingEnv, join_observation
 from taskcomplexity.tasks.spec import TaskSpec

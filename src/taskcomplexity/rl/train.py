@@ -69,8 +69,8 @@ from taskcomplexity.rl.factories import (
     make_target_updater,
     success_info_key,
 )
-from taskcomplexity.rl.seeding import derive_seed
 from taskcomplexity.rl.settings import SACSettings, sac_skip_reason
+from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.goal_env import goal_layout
 from taskcomplexity.tasks.spec import TaskSpec
