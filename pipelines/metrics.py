@@ -1,10 +1,12 @@
-"""Metrics stage: PIC, POIC, statistics, bootstrap and batch tests per task, and the study's tables.
+"""Metrics stage: every registered metric of the metrics stage, its bootstrap and batch estimates, per task.
 
-    python pipelines/metrics.py experiment=smoke                  # every task of the study + tables
-    python pipelines/metrics.py metrics.scope=task arm=two_link   # one task
+    python pipelines/metrics.py experiment=smoke                  # every task of the study
+    python pipelines/metrics.py metrics.scope=task task=pendulum  # one task
 
-Pulls (computes if missing) the RWG artefact each task needs. Tables go to
-``<paths.outputs>/tables/<study.name>/`` as Markdown, LaTeX and CSV.
+Pulls (computes if missing) the RWG artefact each task needs, logs where each metrics artefact is, and
+prints the point estimates (one row per task, one column per metric). The study's tables (Table 1,
+intervals, Welch matrices) are the report's: ``python pipelines/report.py`` writes them once, under
+``<paths.outputs>/reports/<study>/tables/``.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from taskcomplexity.cli import (
 )
 from taskcomplexity.config import task_from_config
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.pipeline.study import study_metrics, write_metrics_tables
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
+from taskcomplexity.pipeline.study import metrics_frame, study_metrics
 
 log = logging.getLogger("metrics")
 
@@ -46,10 +49,11 @@ def run(cfg: DictConfig):
     results = study_metrics(
         cache, list(requests), settings, names=list(names) if names else None, force=bool(cfg.force), progress=True
     )
-    if len(results) >= 2:
-        written = write_metrics_tables(results, cfg.paths.outputs, run_name(cfg), alpha=settings.alpha)
-        for path in written:
-            log.info("table: %s", path)
+    for result in results:
+        log.info("%s: %s", result.task_id, result.metrics.file("metrics.parquet"))
+    names = ["task", *(m.name for m in DEFAULT_REGISTRY.of_stage("metrics"))]
+    frame = metrics_frame(results)
+    print(f"{run_name(cfg)}:\n" + frame[[c for c in names if c in frame.columns]].to_string(index=False), flush=True)
     return results
 
 

@@ -15,7 +15,7 @@ import hydra
 from omegaconf import DictConfig
 
 from taskcomplexity.cli import check_overrides
-from taskcomplexity.pipeline.chain import run_study
+from taskcomplexity.study_run import run_study
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")

@@ -1,4 +1,4 @@
-"""The whole chain for a study: RWG → metrics (+ diagnostics) → SAC → report.
+"""The whole chain for a study: RWG → metrics (+ diagnostics) → SAC → verdict → report.
 
     python pipelines/study.py experiment=quick     # what `make run` does
     python pipelines/study.py experiment=paper     # the published protocol (`make paper`)
@@ -17,7 +17,7 @@ import hydra
 from omegaconf import DictConfig
 
 from taskcomplexity.cli import check_overrides
-from taskcomplexity.pipeline.chain import run_study
+from taskcomplexity.study_run import run_study
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")

@@ -13,40 +13,55 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from taskcomplexity.metrics import (
+    DEFAULT_REGISTRY,
+    Estimation,
     batch_estimates,
     format_welch_matrix,
     pic,
     poic,
+    random_sampling_score,
     welch_matrix,
     welch_test,
 )
 
+RWG = DEFAULT_REGISTRY.of_stage("metrics")
+
 
 def test_batches_are_consecutive_blocks_estimated_separately(continuous_returns):
-    table = batch_estimates(continuous_returns, batches=3, bins=40)
+    table = batch_estimates(continuous_returns, RWG, batches=3, estimation=Estimation(bins=40))
     assert table["batch"].tolist() == [0, 1, 2] and table["policies"].tolist() == [4, 4, 4]
+    assert list(table.columns) == ["batch", "policies", *(m.name for m in RWG if m.batched)]
     for batch, rows in enumerate((slice(0, 4), slice(4, 8), slice(8, 12))):
         part = continuous_returns[rows]
         assert table["pic"][batch] == pic(part, bins=40).pic
         assert table["poic"][batch] == poic(part).poic
-        assert table["temperature"][batch] == poic(part).temperature
+        assert table["score"][batch] == random_sampling_score(part).score
+        assert table["variance"][batch] == random_sampling_score(part).variance
 
 
 def test_uneven_batches_follow_array_split(integer_returns):
-    table = batch_estimates(integer_returns, batches=4, bins=20)  # N = 15
+    table = batch_estimates(integer_returns, RWG, batches=4, estimation=Estimation(bins=20))  # N = 15
     assert table["policies"].tolist() == [4, 4, 4, 3]
     assert table["pic"][3] == pic(integer_returns[12:], bins=20).pic
+    assert table["r_mean"][3] == integer_returns[12:].mean()
+
+
+def test_only_batched_metrics_get_batch_estimates(continuous_returns):
+    table = batch_estimates(continuous_returns, [m for m in RWG if m.name == "pic"] + [
+        DEFAULT_REGISTRY["sac_final"]], batches=2, estimation=Estimation(bins=30))
+    assert list(table.columns) == ["batch", "policies", "pic"]
 
 
 def test_batch_estimates_are_deterministic(continuous_returns):
     pd.testing.assert_frame_equal(
-        batch_estimates(continuous_returns, bins=30), batch_estimates(continuous_returns, bins=30)
+        batch_estimates(continuous_returns, RWG, estimation=Estimation(bins=30)),
+        batch_estimates(continuous_returns, RWG, estimation=Estimation(bins=30)),
     )
 
 
 def test_every_batch_needs_two_policies(continuous_returns):
     with pytest.raises(ValueError, match="batches must be at most N/2 = 6 .* got 7"):
-        batch_estimates(continuous_returns, batches=7)
+        batch_estimates(continuous_returns, RWG, batches=7)
 
 
 samples = hnp.arrays(np.float64, st.integers(2, 20), elements=st.floats(-1e3, 1e3, allow_subnormal=False))

@@ -22,7 +22,8 @@ CALLS = {
     "poic": lambda r: metrics.poic(r),
     "mutual_information_curve": lambda r: metrics.mutual_information_curve(r, [1.0]),
     "bootstrap": lambda r: metrics.bootstrap(r, seed=0, resamples=2, bins=10),
-    "batch_estimates": lambda r: metrics.batch_estimates(r, batches=1, bins=10),
+    "batch_estimates": lambda r: metrics.batch_estimates(r, metrics.DEFAULT_REGISTRY.of_stage("metrics"), batches=1,
+                                                           estimation=metrics.Estimation(bins=10)),
     "permutation_null": lambda r: metrics.permutation_null(r, seed=0, repeats=1, bins=10),
     "pic_bins_sweep": lambda r: metrics.pic_bins_sweep(r, bins=(10,)),
     "pic_subsample_sweep": lambda r: metrics.pic_subsample_sweep(r, seed=0, bins=10),
@@ -88,7 +89,8 @@ def test_bins_must_be_an_integer_of_at_least_two(estimator, bins):
 def test_bins_are_checked_by_the_bootstrap_batches_and_sweeps():
     for call in (
         lambda: metrics.bootstrap(GOOD, seed=0, bins=1),
-        lambda: metrics.batch_estimates(GOOD, batches=1, bins=1),
+        lambda: metrics.batch_estimates(GOOD, metrics.DEFAULT_REGISTRY.of_stage("metrics"), batches=1,
+                                              estimation=metrics.Estimation(bins=1)),
         lambda: metrics.pic_bins_sweep(GOOD, bins=(10, 1)),
         lambda: metrics.permutation_null(GOOD, seed=0, bins=1),
     ):

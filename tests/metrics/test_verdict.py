@@ -1,4 +1,4 @@
-"""The verdict on synthetic measures whose agreement with the known task order is known."""
+"""The verdict (``taskcomplexity.verdict``) on synthetic measures whose agreement with the known order is known."""
 
 from __future__ import annotations
 
@@ -7,17 +7,15 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.metrics import (
-    Relation,
-    verdict,
-    verdict_by_relation,
-    verdict_summary,
-    welch_matrix,
-)
-from taskcomplexity.study import load_study_file
+from taskcomplexity.metrics import DEFAULT_REGISTRY, Metric
+from taskcomplexity.study import Relation, load_study_file
+from taskcomplexity.verdict import by_relation, judge, pairwise_welch, summarise
 
 PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
 RELATIONS, TASKS, TOTAL_ORDERS = PAPER.relations, PAPER.ids, PAPER.orders
+HARDER = Metric("steps_needed", "steps needed", "steps", "steps", higher_is_easier=False, family="baseline",
+                stage="metrics", compute=lambda s: 0.0)
+REGISTRY = DEFAULT_REGISTRY.with_metrics(HARDER)
 
 # A difficulty score per task consistent with every known relation (higher = harder).
 DIFFICULTY = {
@@ -31,22 +29,12 @@ DIFFICULTY = {
 }
 
 
-def values_table(values: dict[str, dict[str, float]]) -> pd.DataFrame:
-    return pd.DataFrame(
-        [
-            {"task": task, "metric": metric, "value": v}
-            for metric, per_task in values.items()
-            for task, v in per_task.items()
-        ]
-    )
-
-
-def samples_table(centres: dict[str, float], *, metric: str, spread: float) -> pd.DataFrame:
-    """Five values per task, centred on ``centres`` with the given spread."""
-    offsets = spread * np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
-    return pd.DataFrame(
-        [{"task": task, "metric": metric, "value": centre + o} for task, centre in centres.items() for o in offsets]
-    )
+def measures(metric: str, centre: dict[str, float], *, spread: float, draws: int = 5):
+    """Point values and ``draws`` samples per task at ``centre`` ± ``spread`` (symmetric offsets, sd ∝ spread)."""
+    values = pd.DataFrame({"task": list(centre), "metric": metric, "value": list(centre.values())})
+    offsets = spread * np.linspace(-2.0, 2.0, draws) if draws > 1 else np.zeros(1)
+    samples = pd.DataFrame([{"task": t, "metric": metric, "value": c + o} for t, c in centre.items() for o in offsets])
+    return values, samples
 
 
 def test_the_paper_study_holds_the_relations_of_environments_md():
@@ -70,104 +58,147 @@ def test_the_study_keeps_only_relations_whose_tasks_are_present():
 
 
 def test_a_metric_that_falls_with_difficulty_agrees_everywhere():
-    values = values_table({"pic": {t: 10.0 - d for t, d in DIFFICULTY.items()}})
-    table = verdict(values, higher_is_easier={"pic": True}, relations=RELATIONS)
+    # Spread 0.01 around means one unit apart: every Welch p is far below 0.005.
+    values, samples = measures("pic", {t: 10.0 - d for t, d in DIFFICULTY.items()}, spread=0.01)
+    table = judge(values, samples, RELATIONS, registry=REGISTRY)
     assert len(table) == 10
-    assert (table["outcome"] == "agree").all() and table["significant"].all()
-    assert table["pvalue"].isna().all()  # no samples, no p-values: counted as significant
-    summary = verdict_summary(table, values, TOTAL_ORDERS).set_index("metric")
-    assert summary.loc["pic", ["relations", "agreements", "contradictions", "not_significant"]].tolist() == [
-        10,
-        10,
-        0,
-        0,
-    ]
-    assert summary.loc["pic", "kendall_tau_dense"] == 1.0
-    assert summary.loc["pic", "kendall_tau_sparse"] == 1.0
+    assert (table["outcome"] == "agree").all() and (table["pvalue"] < 1e-6).all()
+    assert (table["samples_easier"] == 5).all()
+    summary = summarise(table, values, registry=REGISTRY, orders=TOTAL_ORDERS).set_index("metric")
+    assert summary.loc["pic", ["relations", "agreements", "contradictions", "not_significant", "undefined"]].tolist() \
+        == [10, 10, 0, 0, 0]
+    assert summary.loc["pic", "kendall_tau_dense"] == pytest.approx(1.0)
+    assert summary.loc["pic", "kendall_tau_sparse"] == pytest.approx(1.0)
 
 
 def test_a_reversed_metric_contradicts_everywhere():
-    values = values_table({"pic": {t: float(d) for t, d in DIFFICULTY.items()}})
-    table = verdict(values, higher_is_easier={"pic": True}, relations=RELATIONS)
+    values, samples = measures("poic", {t: float(d) for t, d in DIFFICULTY.items()}, spread=0.01)
+    table = judge(values, samples, RELATIONS, registry=REGISTRY)
     assert (table["outcome"] == "contradict").all()
-    summary = verdict_summary(table, values, TOTAL_ORDERS).set_index("metric")
-    assert summary.loc["pic", "contradictions"] == 10
-    assert summary.loc["pic", "kendall_tau_dense"] == -1.0
-    assert summary.loc["pic", "kendall_tau_sparse"] == -1.0
+    summary = summarise(table, values, registry=REGISTRY, orders=TOTAL_ORDERS).set_index("metric")
+    assert summary.loc["poic", "contradictions"] == 10
+    assert summary.loc["poic", "kendall_tau_dense"] == pytest.approx(-1.0)
 
 
-def test_a_metric_where_higher_means_harder_is_oriented():
-    values = values_table({"variance": {t: float(d) for t, d in DIFFICULTY.items()}})
-    table = verdict(values, higher_is_easier={"variance": False}, relations=RELATIONS)
-    assert (table["outcome"] == "agree").all()
-    assert verdict_summary(table, values, TOTAL_ORDERS)["kendall_tau_dense"][0] == 1.0
+def test_a_metric_where_higher_means_harder_is_oriented_by_the_registry():
+    values, samples = measures("steps_needed", {t: float(d) for t, d in DIFFICULTY.items()}, spread=0.01)
+    table = judge(values, samples, RELATIONS, registry=REGISTRY)
+    assert (table["outcome"] == "agree").all() and not table["higher_is_easier"].any()
+    assert summarise(table, values, registry=REGISTRY, orders=TOTAL_ORDERS)["kendall_tau_dense"][0] == 1.0
 
 
-def test_overlapping_samples_are_not_significant_and_separated_ones_decide():
-    centres = {t: 10.0 - d for t, d in DIFFICULTY.items()}
-    values = values_table({"pic": centres})
-    # Spread 0.01: tasks one unit apart are separated by 100 sd, every test is significant.
-    tight = verdict(values, higher_is_easier={"pic": True}, relations=RELATIONS, samples=samples_table(centres, metric="pic", spread=0.01))
-    assert (tight["outcome"] == "agree").all() and (tight["pvalue"] < 1e-6).all()
-    # Spread 10: differences of a few units are far inside the noise, nothing is significant.
-    loose = verdict(values, higher_is_easier={"pic": True}, relations=RELATIONS, samples=samples_table(centres, metric="pic", spread=10.0))
-    assert (loose["outcome"] == "not significant").all() and (loose["pvalue"] > 0.005).all()
-    assert verdict_summary(loose, values, TOTAL_ORDERS)["not_significant"][0] == 10
+def test_differences_within_the_noise_are_not_significant():
+    # Spread 10 (sd ≈ 16) around means at most 6 apart, 5 samples each: every p is far above 0.005.
+    values, samples = measures("pic", {t: 10.0 - d for t, d in DIFFICULTY.items()}, spread=10.0)
+    table = judge(values, samples, RELATIONS, registry=REGISTRY)
+    assert (table["outcome"] == "not significant").all() and (table["pvalue"] > 0.005).all()
+    assert table["agrees"].all()  # the direction is still reported
+
+
+def test_a_single_sample_is_never_significant():
+    values, samples = measures("sac_final", {t: 1.0 - 0.1 * d for t, d in DIFFICULTY.items()}, spread=0.0, draws=1)
+    table = judge(values, samples, RELATIONS, registry=REGISTRY)
+    assert table["pvalue"].isna().all() and (table["outcome"] == "not significant").all()
+
+
+def test_a_missing_or_non_finite_value_is_undefined_in_the_library_verdict():
+    centre = {t: 1.0 - 0.1 * d for t, d in DIFFICULTY.items()}
+    centre["two_link-sparse"] = float("nan")  # e.g. score_R when every return is equal
+    values, samples = measures("score", centre, spread=0.001)
+    values = values[values["task"] != "two_link_obstacle-dense"]  # and a task the metric has no value for
+    table = judge(values, samples, RELATIONS, registry=REGISTRY)
+    assert len(table) == len(RELATIONS)
+    undefined = table[table["outcome"] == "undefined"]
+    involved = {(r.easier, r.harder) for r in RELATIONS
+                if {"two_link-sparse", "two_link_obstacle-dense"} & {r.easier, r.harder}}
+    assert set(zip(undefined["easier"], undefined["harder"], strict=True)) == involved
+    assert undefined["pvalue"].isna().all() and not undefined["significant"].any()
+    summary = summarise(table, values, registry=REGISTRY, orders=TOTAL_ORDERS)
+    assert int(summary["undefined"].iloc[0]) == len(involved) == 4
+    assert int(summary["agreements"].iloc[0]) == len(RELATIONS) - 4
+
+
+def test_each_metric_is_tested_on_its_own_samples_in_registry_order():
+    pic = measures("pic", {t: 10.0 - d for t, d in DIFFICULTY.items()}, spread=0.01)
+    poic = measures("poic", {t: 10.0 - d for t, d in DIFFICULTY.items()}, spread=50.0)
+    table = judge(pd.concat([poic[0], pic[0]]), pd.concat([poic[1], pic[1]]), RELATIONS, registry=REGISTRY)
+    assert list(dict.fromkeys(table["metric"])) == ["pic", "poic"]
+    outcomes = table.groupby("metric")["outcome"].unique()
+    assert list(outcomes["pic"]) == ["agree"] and list(outcomes["poic"]) == ["not significant"]
 
 
 def test_mixed_outcomes_on_a_synthetic_metric():
-    # The metric agrees on link length (5 > 3), contradicts on reward (dense 5 < sparse 5.5),
-    # and the samples separate both pairs.
-    tasks = ["one_link_1m0-dense", "one_link_1m65-dense", "one_link_1m0-sparse"]
+    # The metric agrees on link length (5 > 3), contradicts on reward (dense 5 < sparse 5.5).
     centres = {"one_link_1m0-dense": 5.0, "one_link_1m65-dense": 3.0, "one_link_1m0-sparse": 5.5}
-    samples = samples_table(centres, metric="poic", spread=0.01)
-    table = verdict(values_table({"poic": centres}), higher_is_easier={"poic": True}, relations=RELATIONS, samples=samples)
-    outcomes = dict(zip(table["kind"], table["outcome"], strict=True))
-    assert set(table["easier"]) | set(table["harder"]) == set(tasks)
-    assert outcomes == {"link_length": "agree", "reward": "contradict"}
+    values, samples = measures("poic", centres, spread=0.01)
+    table = judge(values, samples, PAPER.relations_among(centres), registry=REGISTRY)
+    assert dict(zip(table["kind"], table["outcome"], strict=True)) == {"link_length": "agree", "reward": "contradict"}
+    assert table["difference"].tolist() == [2.0, -0.5]
 
 
-def test_p_values_can_be_supplied_instead_of_samples():
-    centres = {"two_link-dense": 2.0, "two_link-sparse": 1.0}
-    draws = {"two_link-dense": [2.0, 2.1, 1.9], "two_link-sparse": [1.0, 3.0, -1.0]}
-    pvalues = welch_matrix(draws).assign(metric="poic")
-    table = verdict(values_table({"poic": centres}), higher_is_easier={"poic": True}, relations=RELATIONS, pvalues=pvalues)
-    assert table["outcome"].tolist() == ["not significant"]
-    assert table["pvalue"][0] == pytest.approx(pvalues["pvalue"][0], rel=1e-15)
-
-
-def test_every_metric_needs_a_direction():
-    values = values_table({"pic": {"two_link-dense": 1.0, "two_link-sparse": 0.5}})
-    with pytest.raises(ValueError, match="higher_is_easier must give a direction for every metric .*\\['pic'\\]"):
-        verdict(values, higher_is_easier={}, relations=RELATIONS)
+def test_every_metric_must_be_registered():
+    values, samples = measures("mystery", {"two_link-dense": 1.0, "two_link-sparse": 0.5}, spread=0.1)
+    with pytest.raises(ValueError, match="registry does not know: \\['mystery'\\]"):
+        judge(values, samples, RELATIONS, registry=DEFAULT_REGISTRY)
 
 
 def test_values_need_one_row_per_task_and_metric():
-    values = values_table({"pic": {"two_link-dense": 1.0}})
-    with pytest.raises(
-        ValueError, match="one row per \\(task, metric\\), got several for \\('two_link-dense', 'pic'\\)"
-    ):
-        verdict(pd.concat([values, values]), higher_is_easier={"pic": True}, relations=RELATIONS)
+    values, samples = measures("pic", {"two_link-dense": 1.0}, spread=0.1)
+    with pytest.raises(ValueError, match="one row per \\(task, metric\\), got several for \\('two_link-dense', 'pic'\\)"):
+        judge(pd.concat([values, values]), samples, RELATIONS, registry=REGISTRY)
 
 
-def test_kendall_tau_is_nan_with_fewer_than_two_tasks_of_a_reward_type():
-    values = values_table({"pic": {"two_link-dense": 1.0, "two_link-sparse": 0.5}})
-    summary = verdict_summary(verdict(values, higher_is_easier={"pic": True}, relations=RELATIONS), values, TOTAL_ORDERS)
+def test_without_relations_the_summary_still_lists_every_metric():
+    values, samples = measures("pic", {t: 10.0 - d for t, d in DIFFICULTY.items()}, spread=0.01)
+    table = judge(values, samples, (), registry=REGISTRY)
+    assert table.empty and list(table.columns)[:8] == ["metric", "easier", "harder", "kind", "value_easier",
+                                                       "value_harder", "pvalue", "outcome"]
+    summary = summarise(table, values, registry=REGISTRY, orders=TOTAL_ORDERS)
+    assert summary["metric"].tolist() == ["pic"] and summary["relations"].tolist() == [0]
+    assert summary["kendall_tau_dense"][0] == pytest.approx(1.0)  # the orders are still judged
+
+
+def test_kendall_tau_is_nan_with_fewer_than_two_tasks_of_an_order():
+    values, samples = measures("pic", {"two_link-dense": 1.0, "two_link-sparse": 0.5}, spread=0.1)
+    summary = summarise(judge(values, samples, RELATIONS, registry=REGISTRY), values, registry=REGISTRY,
+                        orders=TOTAL_ORDERS)
     assert np.isnan(summary["kendall_tau_dense"][0]) and np.isnan(summary["kendall_tau_sparse"][0])
+
+
+def test_reference_scores_are_correlated_with_the_metrics_easiness():
+    reference = {t: 10.0 - d for t, d in DIFFICULTY.items()}  # higher = easier
+    pic = measures("pic", {t: 2 * v + 1 for t, v in reference.items()}, spread=0.01)  # exactly linear in it
+    steps = measures("steps_needed", {t: float(d) ** 2 for t, d in DIFFICULTY.items()}, spread=0.01)  # monotone
+    values = pd.concat([pic[0], steps[0]])
+    summary = summarise(judge(values, pd.concat([pic[1], steps[1]]), RELATIONS, registry=REGISTRY), values,
+                        registry=REGISTRY, reference=reference).set_index("metric")
+    assert summary.loc["pic", "pearson_r"] == pytest.approx(1.0)
+    assert summary.loc["pic", "spearman_r"] == pytest.approx(1.0)
+    # lower steps = easier: the easiness is -d², perfectly rank-correlated, not linearly
+    assert summary.loc["steps_needed", "spearman_r"] == pytest.approx(1.0)
+    assert 0.9 < summary.loc["steps_needed", "pearson_r"] < 1.0
+    assert summary.loc["pic", "pearson_p"] < 1e-6
 
 
 def test_verdicts_by_relation_show_which_survive_a_change_of_estimator():
     falling = {t: 10.0 - d for t, d in DIFFICULTY.items()}
-    values = values_table({"pic": falling, "pic_knn": {**falling, "two_link-sparse": 100.0}})
-    wide = verdict_by_relation(verdict(values, higher_is_easier={"pic": True, "pic_knn": True}, relations=RELATIONS))
-    assert list(wide.columns) == ["pic", "pic_knn", "unanimous"]
+    pic = measures("pic", falling, spread=0.01)
+    knn = measures("pic_knn", {**falling, "two_link-sparse": 100.0}, spread=0.01)
+    table = judge(pd.concat([pic[0], knn[0]]), pd.concat([pic[1], knn[1]]), RELATIONS, registry=REGISTRY)
+    wide = by_relation(table, ["pic", "pic_knn", "pic_miller_madow"])
+    assert list(wide.columns) == ["easier", "harder", "kind", "pic", "pic_knn", "survives"]
     assert len(wide) == 10
-    changed = wide[~wide["unanimous"]]
+    changed = wide[~wide["survives"]]
     # Only the relations with two_link-sparse as the harder task flip under pic_knn.
-    assert set(changed.index.get_level_values("harder")) == {"two_link-sparse"}
+    assert set(changed["harder"]) == {"two_link-sparse"} and len(changed) == 3
     assert (changed["pic"] == "agree").all() and (changed["pic_knn"] == "contradict").all()
+    assert by_relation(table, ["pic", "pic_miller_madow"]).empty  # one estimator present: nothing to compare
 
 
-def test_difference_is_the_easier_minus_the_harder_value():
-    values = values_table({"pic": {"two_link-dense": 1.0, "two_link-sparse": 0.25}})
-    assert verdict(values, higher_is_easier={"pic": True}, relations=RELATIONS)["difference"].tolist() == [0.75]
+def test_pairwise_welch_gives_every_ordered_pair_of_tasks_per_metric():
+    _, samples = measures("pic", {"a": 1.0, "b": 2.0, "c": 3.0}, spread=0.1)
+    single = pd.DataFrame({"task": ["a", "b"], "metric": "poic", "value": [1.0, 2.0]})  # one sample each: untestable
+    tests = pairwise_welch(pd.concat([samples, single]), registry=REGISTRY)
+    assert set(tests["metric"]) == {"pic"} and len(tests) == 6
+    row = tests[(tests["task_a"] == "c") & (tests["task_b"] == "a")].iloc[0]
+    assert row["statistic"] > 0 and row["significant"]

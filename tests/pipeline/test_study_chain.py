@@ -5,7 +5,12 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from taskcomplexity.pipeline.chain import run_study
+import pandas as pd
+
+from taskcomplexity.cli import study_from
+from taskcomplexity.metrics import DEFAULT_REGISTRY
+from taskcomplexity.pipeline.chain import run_verdict
+from taskcomplexity.study_run import run_study
 
 
 def test_smoke_study_writes_a_self_contained_report_and_says_where(compose_config, capsys):
@@ -33,3 +38,27 @@ def test_a_second_run_only_hits_the_cache(compose_config, caplog):
         run_study(cfg)
     assert "computed:" not in caplog.text
     assert caplog.text.count("cache hit") >= 7
+    assert "cache hit: verdict" in caplog.text and "verdict cache hit" in caplog.text
+
+
+def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(compose_config):
+    cfg = compose_config("experiment=smoke", "sac.enabled=false")
+    artefact = run_verdict(cfg)
+    verdict = pd.read_parquet(artefact.file("verdict.parquet"))
+    study = study_from(cfg)
+    judged = [m.name for m in DEFAULT_REGISTRY if m.stage != "sac"]  # SAC off
+    assert len(verdict) == len(judged) * len(study.relations) == 80
+    assert set(zip(verdict["metric"], verdict["easier"], verdict["harder"], strict=True)) == {
+        (m, r.easier, r.harder) for m in judged for r in study.relations}
+    index = run_study(cfg)  # the report reads the same artefact: its tidy verdict is the artefact's
+    tidy = pd.read_csv(index.parent / "tables" / "verdict_tidy.csv")
+    assert tidy["outcome"].tolist() == verdict["outcome"].tolist()
+
+
+def test_one_writer_per_table(compose_config):
+    cfg = compose_config("experiment=smoke", "sac.enabled=false")
+    index = run_study(cfg)
+    outputs = Path(cfg.paths.outputs)
+    assert not (outputs / "tables").exists()  # no second copy of Table 1 or the Welch matrices
+    assert sorted(p.name for p in outputs.rglob("table1*")) == ["table1.csv", "table1.md", "table1.tex"]
+    assert (index.parent / "tables" / "welch_pic.csv").is_file()

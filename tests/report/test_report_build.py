@@ -1,13 +1,13 @@
 """End to end: a smoke-size study of the seven tasks through the real stages into a complete report.
 
-One module-scoped study (N = 20 policies × M = 8 episodes per task) is built with the real RWG, metrics and
-diagnostics stages, plus synthetic SAC curves; the tests read what ``build_report`` wrote.
+One module-scoped study (N = 20 policies × M = 8 episodes per task) is built with the real RWG, metrics,
+diagnostics and verdict stages, plus synthetic SAC curves; the tests read what ``build_report`` wrote and
+compare it with the artefacts.
 """
 
 from __future__ import annotations
 
 import base64
-from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -16,14 +16,11 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings, study_diagnostics
-from taskcomplexity.pipeline.metrics_stage import MetricsSettings
+from taskcomplexity.metrics import DEFAULT_REGISTRY
 from taskcomplexity.pipeline.rwg_stage import RWGRequest, load_returns
-from taskcomplexity.pipeline.study import study_metrics
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
-from taskcomplexity.report.verdict import ESTIMATOR_METRICS, RWG_METRICS, label
+from taskcomplexity.report.format import mean_sd
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
@@ -32,8 +29,8 @@ PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
 RELATIONS, TASKS = PAPER.relations, PAPER.ids
 
 FIGURES = ("rwg_trios", "bootstrap", "score_scatter", "sac_curves", "diagnostics_bins", "diagnostics_null",
-           "ablation_one_link_1m0_dense")
-TABLES = ("table1_pic_poic", "bootstrap_intervals", "welch_pic", "welch_poic", "rwg_statistics", "sac_summary",
+           "ablation_1_link_l_1_0_m_dense")
+TABLES = ("table1", "bootstrap_intervals", "welch_pic", "welch_poic", "rwg_statistics", "sac_summary",
           "verdict_matrix", "verdict_summary", "verdict", "diagnostics_estimators", "diagnostics_bins",
           "verdict_survival")
 
@@ -56,25 +53,21 @@ def synthetic_curves(tasks, seeds=(0, 1, 2)) -> pd.DataFrame:
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory):
+def study(tmp_path_factory, run_stages):
     root = tmp_path_factory.mktemp("study")
-    cache = Cache(root / "cache")
     requests = [RWGRequest(task_from_id(t), NetworkSpec(), PriorSpec(), RWGSettings(policies=20, episodes=8, seed=0))
                 for t in TASKS]
-    settings = MetricsSettings(bins=1000, resamples=20)
-    results = study_metrics(cache, requests, settings)
-    diagnostics = study_diagnostics(cache, {r.task_id: r.rwg for r in results}, settings, DiagnosticsSettings())
-    return root, results, diagnostics
+    return root, run_stages(root, PAPER, requests, sac_curves=synthetic_curves(TASKS))
 
 
 @pytest.fixture(scope="module")
 def report(study):
-    root, results, diagnostics = study
-    returns = load_returns(results[0].rwg)
-    ablation = {results[0].task_id: {"normal prior": returns, "halved returns": returns / 2}}
-    index = build_report(results, study=PAPER, diagnostics=diagnostics, sac_curves=synthetic_curves(TASKS),
-                         out_dir=root / "report", title="Smoke study", ablation=ablation)
-    return index
+    root, found = study
+    returns = load_returns(found["results"][0].rwg)
+    ablation = {"1-link, L = 1.0 m, dense": {"normal prior": returns, "halved returns": returns / 2}}
+    return build_report(found["results"], study=PAPER, verdict=found["verdict"], diagnostics=found["diagnostics"],
+                        sac_curves=synthetic_curves(TASKS), out_dir=root / "report", title="Smoke study",
+                        ablation=ablation)
 
 
 class PageParser(HTMLParser):
@@ -156,17 +149,52 @@ def test_figures_and_tables_are_numbered_in_page_order(report):
         assert numbers == list(range(1, count + 1)), kind
 
 
-def test_the_verdict_has_a_row_for_every_relation_and_metric(report):
-    verdict = pd.read_csv(report.parent / "tables" / "verdict.csv")
-    every_task = [label(m) for m in (*RWG_METRICS, *ESTIMATOR_METRICS, "sac_final", "sac_auc")]
-    for metric in every_task:
-        rows = verdict[verdict["Metric"] == metric]
-        assert len(rows) == len(RELATIONS), metric
-        assert len(set(zip(rows["Easier task"], rows["Harder task"], strict=True))) == len(RELATIONS), metric
-    # SAC + HER ran on the sparse tasks only: it judges the relations between two sparse tasks.
+def test_the_verdict_has_a_row_for_every_relation_and_metric(report, study):
+    verdict = pd.read_parquet(study[1]["verdict"].file("verdict.parquet"))
+    assert len(verdict) == len(DEFAULT_REGISTRY) * len(RELATIONS)
+    assert list(dict.fromkeys(verdict["metric"])) == list(DEFAULT_REGISTRY.names)
+    shown = pd.read_csv(report.parent / "tables" / "verdict.csv")
+    for metric in DEFAULT_REGISTRY:
+        rows = shown[shown["Metric"] == metric.label]
+        assert len(rows) == len(RELATIONS), metric.name
+        assert len(set(zip(rows["Easier task"], rows["Harder task"], strict=True))) == len(RELATIONS), metric.name
+    # SAC + HER ran on the sparse tasks only: it judges the relations between two sparse tasks, the rest are
+    # undefined (no value for a dense task).
+    her = verdict[verdict["metric"] == "sac_her_final"]
     sparse = [r for r in RELATIONS if r.easier.endswith("sparse") and r.harder.endswith("sparse")]
-    assert (verdict["Metric"] == label("sac_her_final")).sum() == len(sparse)
-    assert set(verdict["Outcome"]) <= {"agree", "contradict", "not significant", "undefined"}
+    assert (her["outcome"] != "undefined").sum() == len(sparse)
+    assert set(verdict["outcome"]) <= {"agree", "contradict", "not significant", "undefined"}
+
+
+def test_the_report_shows_the_numbers_of_the_artefacts(report, study):
+    found = study[1]
+    table1 = pd.read_csv(report.parent / "tables" / "table1.csv")
+    assert list(table1.columns) == ["Group", "Task", "PIC", "POIC"]
+    assert table1["Task"].tolist()[:2] == ["1-link, L = 1.0 m", "1-link, L = 1.65 m"]
+    assert table1["Group"].tolist() == ["dense"] * 4 + ["sparse"] * 3
+    for row, result in zip(table1.itertuples(index=False), found["results"], strict=True):
+        metrics = result.table("metrics.parquet").iloc[0]
+        assert row.PIC == mean_sd(metrics["pic_mean"], metrics["pic_sd"])
+        assert row.POIC == mean_sd(metrics["poic_mean"], metrics["poic_sd"])
+    tidy = pd.read_csv(report.parent / "tables" / "verdict_tidy.csv", float_precision="round_trip")
+    artefact = pd.read_parquet(found["verdict"].file("verdict.parquet"))
+    assert tidy["outcome"].tolist() == artefact["outcome"].tolist()
+    np.testing.assert_array_equal(tidy["value_easier"].to_numpy(), artefact["value_easier"].to_numpy())
+    welch = pd.read_csv(report.parent / "tables" / "welch_pic_tidy.csv", float_precision="round_trip")
+    stored = pd.read_parquet(found["verdict"].file("welch.parquet"))
+    np.testing.assert_array_equal(welch["pvalue"].to_numpy(), stored.loc[stored["metric"] == "pic", "pvalue"].to_numpy())
+    summary = pd.read_csv(report.parent / "tables" / "verdict_summary.csv").set_index("Metric")
+    counts = pd.read_parquet(found["verdict"].file("summary.parquet")).set_index("metric")
+    assert summary.loc["PIC", "Agree"] == counts.loc["pic", "agreements"]
+    assert summary.loc["SAC+HER final", "Undefined"] == counts.loc["sac_her_final", "undefined"] == 7
+
+
+def test_relations_and_kinds_are_named_as_the_study_writes_them(report):
+    matrix = pd.read_csv(report.parent / "tables" / "verdict_matrix.csv")
+    assert matrix.iloc[0, 0] == "1-link, L = 1.0 m, dense < 1-link, L = 1.65 m, dense"
+    assert set(matrix["Kind"]) == {"link length", "degrees of freedom", "reward", "obstacle"}
+    text = " ".join(parse(report).text)
+    assert "one_link" not in text.replace("one_link_1m0", "")  # no raw ids on the page, except artefact keys
 
 
 def test_the_markdown_report_links_existing_figures(report):
@@ -176,22 +204,16 @@ def test_the_markdown_report_links_existing_figures(report):
     assert all((report.parent / path).is_file() for path in linked)
 
 
-def test_without_sac_curves_or_diagnostics_the_page_says_so(study, tmp_path):
-    _, results, _ = study
-    index = build_report(results[:2], study=PAPER, diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Two tasks")
+def test_without_sac_curves_or_diagnostics_the_page_says_so(study, run_stages, tmp_path):
+    _, found = study
+    requests = [r.request for r in found["results"][:2]]
+    two = run_stages(tmp_path, PAPER, requests, diagnostics=False)
+    index = build_report(two["results"], study=PAPER, verdict=two["verdict"], diagnostics=None, sac_curves=None,
+                         out_dir=tmp_path / "report", title="Two tasks")
     text = " ".join(parse(index).text)
     assert "SAC curves were not computed" in text
     assert "diagnostics" in text and "were not computed for this report" in text
-    assert not (tmp_path / "figures" / "sac_curves.png").exists()
-    verdict = pd.read_csv(tmp_path / "tables" / "verdict.csv")
-    assert set(verdict["Metric"]) == {"PIC", "POIC", "score_R", "mean return", "variance"}
-
-
-def test_entries_that_are_not_task_ids_get_a_report_without_relations(study, tmp_path):
-    # An ablation study names its entries by sampler ("default", "U(-1, 1)"): no known relation applies.
-    _, results, _ = study
-    named = [replace(results[0], task_id="default"), replace(results[1], task_id="U(-1, 1)")]
-    index = build_report(named, study=PAPER, diagnostics=None, sac_curves=None, out_dir=tmp_path, title="Samplers")
-    text = " ".join(parse(index).text)
-    assert "No known relation could be checked" in text
-    assert "U(-1, 1)" in text
+    assert not (tmp_path / "report" / "figures" / "sac_curves.png").exists()
+    verdict = pd.read_csv(tmp_path / "report" / "tables" / "verdict.csv")
+    assert set(verdict["Metric"]) == {m.label for m in DEFAULT_REGISTRY.of_stage("metrics")}
+    assert len(verdict) == len(DEFAULT_REGISTRY.of_stage("metrics"))  # one relation between the two tasks

@@ -1,4 +1,4 @@
-"""Figures: one colour per task everywhere, episode dots at their policy's rank, files on disk."""
+"""Figures: episode dots at their policy's rank, bands, files on disk, study styles in every panel."""
 
 from __future__ import annotations
 
@@ -10,20 +10,10 @@ import pytest
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import policy_statistics
 from taskcomplexity.report import figures as fig
-from taskcomplexity.study import load_study_file
+from taskcomplexity.report.labels import task_styles
+from taskcomplexity.study import load_study_file, study_from_config
 
-TASKS = load_study_file(CONF_DIR / "study" / "paper.yaml").ids
-
-
-def test_a_task_keeps_its_colour_whichever_tasks_are_shown():
-    everything = fig.task_palette(TASKS)
-    assert len(set(everything.values())) == len(TASKS)
-    assert fig.task_palette(["two_link-sparse", "one_link_1m0-dense"]) == {
-        "one_link_1m0-dense": everything["one_link_1m0-dense"],
-        "two_link-sparse": everything["two_link-sparse"],
-    }
-    extra = fig.task_palette([*TASKS, "three_link-dense"])
-    assert extra["three_link-dense"] not in everything.values()
+PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
 
 
 def test_episode_dots_sit_at_their_policys_rank_not_its_sampling_index():
@@ -62,7 +52,7 @@ def test_the_seed_band_is_the_95_percent_t_interval_of_the_mean():
 def test_figures_are_saved_as_png_and_pdf_without_touching_global_state(tmp_path):
     before = dict(mpl.rcParams)
     returns = np.random.default_rng(1).normal(size=(40, 6))
-    figure = fig.rwg_trio_figure("two_link-dense", policy_statistics(returns), returns=returns)
+    figure = fig.rwg_trio_figure("2-link, dense", policy_statistics(returns), returns=returns)
     paths = fig.save_figure(figure, tmp_path, "trio")
     assert [p.name for p in paths] == ["trio.png", "trio.pdf"]
     assert paths[0].read_bytes()[:4] == b"\x89PNG" and paths[1].read_bytes()[:4] == b"%PDF"
@@ -77,3 +67,24 @@ def test_the_ablation_overlays_returns_and_policy_tables_of_different_sizes():
                                  title="two_link-dense")
     ranked = figure.axes[1]
     assert [line.get_xdata().max() for line in ranked.get_lines()] == [1.0, 1.0]
+
+
+def test_the_sac_curves_get_one_panel_per_study_group_and_the_study_colours():
+    styles = task_styles(PAPER)
+    rows = [{"task": t, "variant": "sac", "seed": seed, "env_step": step, "eval/return_mean": float(step + seed)}
+            for t in ("two_link-dense", "two_link-sparse") for seed in (0, 1) for step in (0, 1000, 2000)]
+    figure = fig.sac_curves_figure(pd.DataFrame(rows), styles)
+    panels = [ax for ax in figure.axes if ax.get_title()]
+    assert [ax.get_title() for ax in panels] == ["dense", "sparse"]
+    dense_lines = panels[0].get_lines()
+    assert len(dense_lines) == 1 and mpl.colors.to_hex(dense_lines[0].get_color()) == "#c0392b"
+    assert dense_lines[0].get_label() == "2-link"
+
+
+def test_a_study_without_groups_gets_one_sac_panel():
+    study = study_from_config({"name": "pair", "tasks": [{"id": "cart", "task": "cartpole"},
+                                                         {"id": "pend", "task": "pendulum"}]})
+    rows = [{"task": t, "variant": "sac", "seed": 0, "env_step": step, "eval/return_mean": 1.0}
+            for t in ("cart", "pend") for step in (1000, 2000)]
+    figure = fig.sac_curves_figure(pd.DataFrame(rows), task_styles(study))
+    assert len(figure.axes) == 1 and len(figure.axes[0].get_lines()) == 2

@@ -12,14 +12,16 @@ pic          Policy Information Capacity (histogram estimator) and its reference
 temperature  the deterministic temperature search of POIC
 poic         Policy-Optimal Information Capacity and the MI(λ) curve
 bootstrap    fast bootstrap of PIC and POIC over policies
-batches      batch estimates and Welch's t-tests between tasks
+batches      Welch's t-tests between tasks
 diagnostics  permutation null, bins and subsample sweeps, Miller–Madow and nearest-neighbour MI
-verdict      known task relations and the agreement of each metric with them
+sample       one return matrix with its estimator settings and shared, lazily computed estimates
+registry     every metric declared once: function, labels, unit, direction, family, stage
+evaluate     the one place a registered metric is evaluated (points, bootstrap, batches, SAC seeds)
+sac          final return, AUC and steps to 90 % of SAC learning curves (inputs of the SAC metrics)
 """
 
 from taskcomplexity.metrics.batches import (
     WelchResult,
-    batch_estimates,
     format_welch_matrix,
     welch_matrix,
     welch_test,
@@ -39,28 +41,32 @@ from taskcomplexity.metrics.diagnostics import (
     pic_subsample_sweep,
     summarise_null,
 )
+from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
 from taskcomplexity.metrics.histogram import PolicyBinCounts, bin_edges, plugin_entropy, policy_bin_counts
 from taskcomplexity.metrics.pic import PICResult, pic, pic_reference
 from taskcomplexity.metrics.poic import POICResult, mutual_information_curve, poic
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Detail, Metric, Registry
+from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.metrics.statistics import (
     ScoreSummary,
     policy_statistics,
     random_sampling_score,
     validate_returns,
 )
-from taskcomplexity.metrics.verdict import (
-    Relation,
-    verdict,
-    verdict_by_relation,
-    verdict_summary,
-)
 
 __all__ = [
+    "DEFAULT_REGISTRY",
+    "Detail",
+    "Estimation",
+    "Metric",
+    "Registry",
+    "Sample",
+    "bootstrap_estimates",
+    "point_estimates",
     "KNNMIResult",
     "PICResult",
     "POICResult",
     "PolicyBinCounts",
-    "Relation",
     "ScoreSummary",
     "WelchResult",
     "batch_estimates",
@@ -85,9 +91,6 @@ __all__ = [
     "summarise_bootstrap",
     "summarise_null",
     "validate_returns",
-    "verdict",
-    "verdict_by_relation",
-    "verdict_summary",
     "welch_matrix",
     "welch_test",
 ]

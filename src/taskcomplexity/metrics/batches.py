@@ -1,8 +1,9 @@
-"""Batch estimates and Welch's t-tests between tasks (the paper's significance tests).
+"""Welch's t-tests between tasks (the paper's significance tests).
 
-The N policies of a task are split into consecutive batches; PIC and POIC are estimated on each, and
-two tasks are compared with Welch's unequal-variance t-test on their batch values
-(``metrics.md`` § Uncertainty and significance). The same tests apply to bootstrap draws.
+The N policies of a task are split into consecutive batches and every batched metric is estimated
+on each (:func:`taskcomplexity.metrics.evaluate.batch_estimates`); two tasks are compared with
+Welch's unequal-variance t-test on their batch values (``metrics.md`` § Uncertainty and
+significance). The same tests apply to bootstrap draws or to SAC seeds.
 """
 
 from __future__ import annotations
@@ -14,16 +15,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
-from taskcomplexity.metrics._validation import check_bins, check_fraction, check_int, validate_returns
-from taskcomplexity.metrics.pic import DEFAULT_BINS, pic
-from taskcomplexity.metrics.poic import poic
-from taskcomplexity.metrics.temperature import (
-    DEFAULT_GRID_POINTS,
-    DEFAULT_REFINE_PEAKS,
-    DEFAULT_REFINE_POINTS,
-    DEFAULT_TEMPERATURE_RANGE,
-    TemperatureLattice,
-)
+from taskcomplexity.metrics._validation import check_fraction, check_int
 
 SIGNIFICANCE_LEVEL = 0.005
 """The paper's cut-off: a difference is significant when p < 0.005."""
@@ -34,69 +26,6 @@ class WelchResult(NamedTuple):
 
     statistic: float
     pvalue: float
-
-
-def batch_estimates(
-    returns: object,
-    *,
-    batches: int = 5,
-    bins: int = DEFAULT_BINS,
-    temperature_range: tuple[float, float] = DEFAULT_TEMPERATURE_RANGE,
-    grid_points: int = DEFAULT_GRID_POINTS,
-    refine_points: int = DEFAULT_REFINE_POINTS,
-    refine_peaks: int = DEFAULT_REFINE_PEAKS,
-    optimal_return: float | None = None,
-) -> pd.DataFrame:
-    """PIC and POIC on consecutive batches of policies.
-
-    Parameters
-    ----------
-    returns : array_like, shape (N, M)
-        Episode returns; row n is policy n in sampling order.
-    batches : int, default 5
-        Number of batches; policies ``0 … N-1`` are split into consecutive blocks of N/batches
-        (sizes differ by at most one when N is not divisible, as :func:`numpy.array_split`).
-        Every batch needs at least 2 policies.
-    bins : int, default 100_000
-        Histogram bins of PIC.
-    temperature_range, grid_points, refine_points, refine_peaks, optimal_return
-        The POIC search (see :func:`~taskcomplexity.metrics.poic.poic`).
-
-    Returns
-    -------
-    pandas.DataFrame, one row per batch
-        ``batch`` (0-based), ``policies`` (batch size), ``pic``, ``poic`` (nats), ``temperature``.
-    """
-    returns = validate_returns(returns)
-    batches = check_int(batches, "batches", minimum=1)
-    if returns.shape[0] < 2 * batches:
-        raise ValueError(
-            f"batches must be at most N/2 = {returns.shape[0] // 2} so that every batch holds at "
-            f"least 2 policies, got {batches}"
-        )
-    bins = check_bins(bins)
-    TemperatureLattice.from_options(temperature_range, grid_points, refine_points, refine_peaks)
-    rows = []
-    for batch, policies in enumerate(np.array_split(np.arange(returns.shape[0]), batches)):
-        part = returns[policies]
-        found = poic(
-            part,
-            temperature_range=temperature_range,
-            grid_points=grid_points,
-            refine_points=refine_points,
-            refine_peaks=refine_peaks,
-            optimal_return=optimal_return,
-        )
-        rows.append(
-            {
-                "batch": batch,
-                "policies": policies.size,
-                "pic": pic(part, bins=bins).pic,
-                "poic": found.poic,
-                "temperature": found.temperature,
-            }
-        )
-    return pd.DataFrame(rows)
 
 
 def welch_test(a: object, b: object) -> WelchResult:

@@ -1,11 +1,16 @@
-"""The whole chain of a study from a composed config: RWG → metrics → diagnostics → SAC → report."""
+"""The stages of a study from a composed config: RWG → metrics → diagnostics → SAC → verdict.
+
+The report reads what these produce (:func:`study_artefacts`); it is written by
+:func:`taskcomplexity.study_run.run_study`, so that this package never imports the report.
+"""
 
 from __future__ import annotations
 
 import logging
-import time
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
+
+import pandas as pd
 
 from taskcomplexity.cli import (
     cache_from_config,
@@ -16,8 +21,12 @@ from taskcomplexity.cli import (
     study_requests,
 )
 from taskcomplexity.config import build
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.pipeline.cache import Artefact
 from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings, study_diagnostics
-from taskcomplexity.pipeline.study import study_metrics, write_metrics_tables
+from taskcomplexity.pipeline.study import TaskMetrics, study_metrics
+from taskcomplexity.pipeline.verdict_stage import run_verdict_stage
+from taskcomplexity.study import Study
 
 log = logging.getLogger("study")
 
@@ -39,42 +48,63 @@ def _sac_curves(cfg: Any, cache, results):
     return study_sac_curves(cache, tasks, cfg.sac, force=bool(cfg.force), progress=True)
 
 
-@one_line_errors
-def run_study(cfg: Any) -> Path:
-    """Compute or reuse every artefact of the study and write its report; return index.html."""
-    from taskcomplexity.report.build import build_report
+@dataclass(frozen=True)
+class StudyArtefacts:
+    """Every artefact of a study, in study order.
 
-    started = time.time()
+    Attributes
+    ----------
+    study : Study
+        The study (tasks, relations, orders, reference scores).
+    name : str
+        Run name (``<study.name>-<tag>``): the report's directory.
+    results : list of TaskMetrics
+        Each task's RWG and metrics artefacts.
+    diagnostics : dict of task id to Artefact
+        Each task's diagnostics artefact.
+    sac_curves : pandas.DataFrame or None
+        Tidy SAC curves (None: SAC off, or a study of variants).
+    verdict : Artefact
+        The verdict stage's artefact.
+    alpha : float
+        Significance cut-off.
+    """
+
+    study: Study
+    name: str
+    results: list[TaskMetrics]
+    diagnostics: dict[str, Artefact]
+    sac_curves: pd.DataFrame | None
+    verdict: Artefact
+    alpha: float
+
+
+def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyArtefacts:
+    """Compute or reuse every artefact of the study of ``cfg`` (each stage logs its cache hits)."""
     study = study_from(cfg)
     entries, requests = zip(*study_requests(cfg, study), strict=True)
-    names = [entry.id for entry in entries]
     settings = metrics_settings_from_config(cfg)
     cache = cache_from_config(cfg)
-    results = study_metrics(cache, list(requests), settings, names=list(names), force=bool(cfg.force), progress=True)
-    name = run_name(cfg)
-    write_metrics_tables(results, cfg.paths.outputs, name, alpha=settings.alpha)
+    force = bool(cfg.force)
+    results = study_metrics(cache, list(requests), settings, names=[e.id for e in entries], registry=registry,
+                            force=force, progress=True)
     diagnostics = study_diagnostics(
         cache,
         {r.task_id: r.rwg for r in results},
         settings,
         build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"),
-        force=bool(cfg.force),
+        registry=registry,
+        force=force,
         progress=True,
     )
-    ablation = None
-    if study.kind == "variants":
-        ablation = {f"{results[0].request.task.task_id}: prior and network variants":
-                    {study.label(r.task_id): r for r in results}}
-        sac = None
-    else:
-        sac = _sac_curves(cfg, cache, results)
-    out_dir = Path(cfg.paths.outputs) / "reports" / name
-    title = cfg.report.get("title") or f"How hard is each reaching task? ({name})"
-    index = build_report(
-        results, study=study, diagnostics=diagnostics, sac_curves=sac, out_dir=out_dir, title=title,
-        ablation=ablation, alpha=settings.alpha,
-    )
-    elapsed = time.time() - started
-    log.info("study %s done in %.0f s", name, elapsed)
-    print(f"\nStudy '{name}' finished in {elapsed:.0f} s.\nReport: {index.resolve()}", flush=True)
-    return index
+    sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
+    verdict, hit = run_verdict_stage(cache, study, {r.task_id: r.metrics for r in results}, diagnostics=diagnostics,
+                                     sac_curves=sac, alpha=settings.alpha, registry=registry, force=force)
+    log.info("verdict %s: %s", "cache hit" if hit else "computed", verdict.file("verdict.parquet"))
+    return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha)
+
+
+@one_line_errors
+def run_verdict(cfg: Any) -> Artefact:
+    """Compute or reuse the study's verdict (and every artefact upstream of it); return its artefact."""
+    return study_artefacts(cfg).verdict

@@ -9,10 +9,10 @@ An RWG artefact + the metrics estimator settings + :class:`DiagnosticsSettings` 
   minus null (``excess``) and its z-score;
 - ``bins_sweep.parquet``: histogram and Miller–Madow PIC for B = 10 … the metrics bins;
 - ``subsample_sweep.parquet``: histogram PIC on nested subsamples of policies and episodes;
-- ``estimators.parquet``: one row, every estimator of I(Θ; R) on the whole sample (histogram,
-  Miller–Madow, nearest-neighbour, PIC minus its null; POIC minus its null);
-- ``batches.parquet``: the same PIC estimators on the consecutive policy batches of the metrics stage,
-  the samples of the Welch tests behind "does the verdict survive a change of estimator".
+- ``estimators.parquet``: one row: histogram PIC and POIC against their nulls, and every registered
+  metric whose stage is ``diagnostics`` (:mod:`taskcomplexity.metrics.registry`) with its details;
+- ``batches.parquet``: each of those metrics that is batched, on the consecutive policy batches of the
+  metrics stage: the samples of the Welch tests behind "does the verdict survive a change of estimator".
 
 Cost at N = 1000, M = 100, B = 10⁵: about 3 s per task (about 20 s for the seven tasks on two cores),
 dominated by the 10 POIC searches of the null and the nearest-neighbour estimates.
@@ -30,6 +30,9 @@ from tqdm.auto import tqdm
 
 from taskcomplexity import metrics as est
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
 from taskcomplexity.pipeline.cache import Artefact, Cache
 from taskcomplexity.pipeline.keys import stage_key
 from taskcomplexity.pipeline.metrics_stage import MetricsSettings
@@ -38,7 +41,7 @@ from taskcomplexity.pipeline.rwg_stage import load_returns
 log = logging.getLogger(__name__)
 
 STAGE = "diagnostics"
-VERSION = 1
+VERSION = 2
 FILES = (
     "null.parquet",
     "null_summary.parquet",
@@ -47,9 +50,6 @@ FILES = (
     "estimators.parquet",
     "batches.parquet",
 )
-
-PIC_ESTIMATORS = ("pic", "pic_miller_madow", "pic_knn", "pic_minus_null")
-"""Columns of ``estimators.parquet`` and ``batches.parquet`` holding an estimate of I(Θ; R) (nats)."""
 
 
 @dataclass(frozen=True)
@@ -128,14 +128,27 @@ def _not_int(value: object) -> bool:
     return isinstance(value, bool) or not isinstance(value, int | np.integer)
 
 
-def diagnostics_key(rwg_key: str, metrics_settings: MetricsSettings, settings: DiagnosticsSettings) -> str:
-    """Cache key: the RWG key, the estimator settings the diagnostics reuse, and ``settings``."""
+def diagnostics_key(
+    rwg_key: str, metrics_settings: MetricsSettings, settings: DiagnosticsSettings,
+    registry: Registry = DEFAULT_REGISTRY,
+) -> str:
+    """Cache key: the RWG key, the estimator settings the diagnostics reuse, ``settings`` and the
+    registry's signature of the stage's metrics."""
     estimator = {
         "bins": metrics_settings.bins,
         "temperature_range": list(metrics_settings.temperature_range),
         "batches": metrics_settings.batches,
     }
-    return stage_key(STAGE, VERSION, {"rwg": rwg_key, "metrics": estimator, **settings.identity()})
+    return stage_key(STAGE, VERSION, {"rwg": rwg_key, "metrics": estimator, **settings.identity(),
+                                      "registry": registry.signature(STAGE)})
+
+
+def estimation(metrics_settings: MetricsSettings, settings: DiagnosticsSettings) -> Estimation:
+    """The estimator settings of the stage's metrics."""
+    return Estimation(bins=int(metrics_settings.bins), temperature_range=tuple(metrics_settings.temperature_range),
+                      null_repeats=settings.repeats, knn_neighbors=settings.knn_neighbors,
+                      knn_max_samples=settings.knn_max_samples,
+                      knn_episodes_per_policy=settings.knn_episodes_per_policy, seed=settings.seed)
 
 
 def _sizes(total: int, fractions: tuple[float, ...]) -> list[int]:
@@ -143,35 +156,12 @@ def _sizes(total: int, fractions: tuple[float, ...]) -> list[int]:
     return sorted(size for size in sizes if size >= 2)
 
 
-def _seeds(seed: int) -> dict[str, int]:
-    """Independent seeds per component, so that changing one component never shifts another's draws."""
-    names = ("null", "subsample", "knn", "batch_null", "batch_knn")
-    states = np.random.SeedSequence(seed).generate_state(len(names))
-    return {name: int(state) for name, state in zip(names, states, strict=True)}
-
-
-def _knn(returns: np.ndarray, settings: DiagnosticsSettings, seed: int) -> est.KNNMIResult:
-    return est.pic_knn(
-        returns,
-        seed=seed,
-        n_neighbors=settings.knn_neighbors,
-        max_samples=settings.knn_max_samples,
-        episodes_per_policy=min(settings.knn_episodes_per_policy, returns.shape[1]),
-    )
-
-
-def _null_pic(returns: np.ndarray, *, bins: int, repeats: int, seed: int) -> float:
-    """Mean histogram PIC of ``repeats`` permutations of ``returns`` across policies (nats)."""
-    rng = np.random.default_rng(seed)
-    values = [est.pic(rng.permutation(returns.ravel()).reshape(returns.shape), bins=bins).pic for _ in range(repeats)]
-    return float(np.mean(values))
-
-
 def compute_diagnostics(
     returns: object,
     metrics_settings: MetricsSettings,
     settings: DiagnosticsSettings,
     *,
+    registry: Registry = DEFAULT_REGISTRY,
     progress: bool = False,
 ) -> dict[str, pd.DataFrame]:
     """Every table of the stage from one task's return matrix.
@@ -184,6 +174,8 @@ def compute_diagnostics(
         Bins B, POIC temperature range and number of batches, as the metrics stage used them.
     settings : DiagnosticsSettings
         Repeats, sweeps, nearest-neighbour options and seed.
+    registry : Registry
+        Its metrics of stage ``diagnostics`` are estimated.
     progress : bool, default False
         Show a progress bar over the steps.
 
@@ -192,18 +184,15 @@ def compute_diagnostics(
     dict of str to pandas.DataFrame
         One table per file name of :data:`FILES` (see the module docstring for their columns).
     """
-    returns = est.validate_returns(returns)
-    bins = int(metrics_settings.bins)
+    sample = Sample(returns, estimation(metrics_settings, settings))
+    returns, bins = sample.returns, sample.estimation.bins
     temperature_range = tuple(metrics_settings.temperature_range)
-    seeds = _seeds(settings.seed)
     steps = tqdm(total=5, desc="diagnostics", disable=not progress, leave=False)
 
-    observed_pic = est.pic(returns, bins=bins)
-    observed_poic = est.poic(returns, temperature_range=temperature_range)
     null = est.permutation_null(
-        returns, seed=seeds["null"], repeats=settings.repeats, bins=bins, temperature_range=temperature_range
+        returns, seed=sample.seed("null"), repeats=settings.repeats, bins=bins, temperature_range=temperature_range
     )
-    summary = est.summarise_null(null, {"pic": observed_pic.pic, "poic": observed_poic.poic})
+    summary = est.summarise_null(null, {"pic": sample.pic.pic, "poic": sample.poic.poic})
     steps.update()
 
     sweep_bins = sorted({b for b in settings.bins_sweep if b <= bins} | {bins})
@@ -213,39 +202,31 @@ def compute_diagnostics(
     n_policies, n_episodes = returns.shape
     subsample = est.pic_subsample_sweep(
         returns,
-        seed=seeds["subsample"],
+        seed=component_seeds(settings.seed)["subsample"],
         policies=_sizes(n_policies, settings.subsample_fractions),
         episodes=_sizes(n_episodes, settings.subsample_fractions),
         bins=bins,
     )
     steps.update()
 
-    knn = _knn(returns, settings, seeds["knn"])
+    metrics = registry.of_stage(STAGE)
     by_metric = summary.set_index("metric")
-    estimators = pd.DataFrame(
-        [
-            {
-                "policies": n_policies,
-                "episodes": n_episodes,
-                "bins": bins,
-                "pic": observed_pic.pic,
-                "pic_miller_madow": est.pic_miller_madow(returns, bins=bins).pic,
-                "pic_knn": knn.mi,
-                "knn_policies": knn.policies,
-                "knn_episodes": knn.episodes,
-                "pic_null_mean": by_metric.loc["pic", "null_mean"],
-                "pic_null_sd": by_metric.loc["pic", "null_sd"],
-                "pic_minus_null": by_metric.loc["pic", "excess"],
-                "poic": observed_poic.poic,
-                "poic_null_mean": by_metric.loc["poic", "null_mean"],
-                "poic_null_sd": by_metric.loc["poic", "null_sd"],
-                "poic_minus_null": by_metric.loc["poic", "excess"],
-            }
-        ]
-    )
+    estimators = pd.DataFrame([{
+        "policies": n_policies,
+        "episodes": n_episodes,
+        "bins": bins,
+        "pic": sample.pic.pic,
+        "pic_null_mean": by_metric.loc["pic", "null_mean"],
+        "pic_null_sd": by_metric.loc["pic", "null_sd"],
+        "poic": sample.poic.poic,
+        "poic_null_mean": by_metric.loc["poic", "null_mean"],
+        "poic_null_sd": by_metric.loc["poic", "null_sd"],
+        "poic_minus_null": by_metric.loc["poic", "excess"],
+        **point_estimates(sample, metrics),
+    }])
     steps.update()
 
-    batches = _batch_estimators(returns, metrics_settings.batches, bins, settings, seeds)
+    batches = batch_estimates(returns, metrics, batches=metrics_settings.batches, estimation=sample.estimation)
     steps.update()
     steps.close()
     return {
@@ -258,35 +239,13 @@ def compute_diagnostics(
     }
 
 
-def _batch_estimators(
-    returns: np.ndarray, batches: int, bins: int, settings: DiagnosticsSettings, seeds: Mapping[str, int]
-) -> pd.DataFrame:
-    """The PIC estimators on the same consecutive policy batches as the metrics stage's Welch tests."""
-    rows = []
-    for batch, policies in enumerate(np.array_split(np.arange(returns.shape[0]), batches)):
-        part = returns[policies]
-        plugin = est.pic(part, bins=bins).pic
-        null = _null_pic(part, bins=bins, repeats=settings.repeats, seed=seeds["batch_null"] + batch)
-        rows.append(
-            {
-                "batch": batch,
-                "policies": policies.size,
-                "pic": plugin,
-                "pic_miller_madow": est.pic_miller_madow(part, bins=bins).pic,
-                "pic_knn": _knn(part, settings, seeds["batch_knn"] + batch).mi,
-                "pic_null_mean": null,
-                "pic_minus_null": plugin - null,
-            }
-        )
-    return pd.DataFrame(rows)
-
-
 def run_diagnostics_stage(
     cache: Cache,
     rwg_artefact: Artefact,
     metrics_settings: MetricsSettings,
     diagnostics_settings: DiagnosticsSettings,
     *,
+    registry: Registry = DEFAULT_REGISTRY,
     force: bool = False,
     progress: bool = False,
 ) -> tuple[Artefact, bool]:
@@ -302,6 +261,8 @@ def run_diagnostics_stage(
         The estimator settings of the metrics stage (bins, temperature range, batches).
     diagnostics_settings : DiagnosticsSettings
         Repeats, sweeps, nearest-neighbour options and seed.
+    registry : Registry
+        Its metrics of stage ``diagnostics`` are estimated (and hashed into the key).
     force : bool, default False
         Recompute even when the key exists.
     progress : bool, default False
@@ -314,17 +275,18 @@ def run_diagnostics_stage(
     """
     metrics_settings.validate()
     diagnostics_settings.validate()
-    key = diagnostics_key(rwg_artefact.key, metrics_settings, diagnostics_settings)
+    key = diagnostics_key(rwg_artefact.key, metrics_settings, diagnostics_settings, registry)
 
     def write(directory):
         tables = compute_diagnostics(load_returns(rwg_artefact), metrics_settings, diagnostics_settings,
-                                     progress=progress)
+                                     registry=registry, progress=progress)
         for name, table in tables.items():
             table.to_parquet(directory / name, index=False)
         return {"label": rwg_artefact.manifest.get("label", "")}
 
     config = {"metrics": {"bins": metrics_settings.bins, "temperature_range": list(metrics_settings.temperature_range),
-                          "batches": metrics_settings.batches}, **diagnostics_settings.identity()}
+                          "batches": metrics_settings.batches}, **diagnostics_settings.identity(),
+              "registry": [m.name for m in registry.of_stage(STAGE)]}
     return cache.get_or_compute(STAGE, key, write, config=config, inputs={"rwg": rwg_artefact.key}, force=force)
 
 
@@ -334,6 +296,7 @@ def study_diagnostics(
     metrics_settings: MetricsSettings,
     diagnostics_settings: DiagnosticsSettings,
     *,
+    registry: Registry = DEFAULT_REGISTRY,
     force: bool = False,
     progress: bool = False,
 ) -> dict[str, Artefact]:
@@ -341,7 +304,7 @@ def study_diagnostics(
     found = {}
     for task_id, rwg in rwg_artefacts.items():
         artefact, hit = run_diagnostics_stage(
-            cache, rwg, metrics_settings, diagnostics_settings, force=force, progress=progress
+            cache, rwg, metrics_settings, diagnostics_settings, registry=registry, force=force, progress=progress
         )
         log.info("%s: diagnostics %s", task_id, "cache hit" if hit else "computed")
         found[task_id] = artefact

@@ -1,13 +1,17 @@
 """The metrics stage: an RWG artefact + estimator settings → metrics, bootstrap and batch tables.
 
+Every metric of the registry whose stage is ``metrics`` is estimated (:mod:`taskcomplexity.metrics.registry`).
 Outputs under ``<cache>/metrics/<key>/``:
 
-- ``metrics.parquet``: one row of point estimates (PIC, H(R), H(R|Θ), POIC, λ*, boundary flag,
-  H(O), H(O|Θ), r_min, r_max, r_mean, score_R, variance) and the bootstrap mean, sd and interval
-  of PIC and POIC;
+- ``metrics.parquet``: one row: ``policies``, ``episodes``, every metric and its details (e.g. H(R),
+  λ*, r_min, r_max), and ``<metric>_mean``, ``_sd``, ``_ci_low``, ``_ci_high`` of each bootstrapped
+  metric;
 - ``policies.parquet``: per-policy statistics (Mₙ, Vₙ, rank, scaled mean);
-- ``bootstrap.parquet``: every bootstrap draw of PIC and POIC;
-- ``batches.parquet``: PIC and POIC of the 5 consecutive policy batches (for the Welch tests).
+- ``bootstrap.parquet``: every bootstrap draw of each bootstrapped metric;
+- ``batches.parquet``: each batched metric on the consecutive policy batches (the Welch tests' samples).
+
+The key hashes the RWG key, the settings and the registry's signature of its metrics, so adding a
+metric recomputes the artefact instead of serving one without it.
 """
 
 from __future__ import annotations
@@ -20,6 +24,9 @@ import pandas as pd
 
 from taskcomplexity import metrics as est
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.pipeline.cache import Artefact, Cache
 from taskcomplexity.pipeline.keys import stage_key
 from taskcomplexity.pipeline.rwg_stage import load_returns
@@ -27,7 +34,7 @@ from taskcomplexity.pipeline.rwg_stage import load_returns
 log = logging.getLogger(__name__)
 
 STAGE = "metrics"
-VERSION = 1
+VERSION = 2
 FILES = ("metrics.parquet", "policies.parquet", "bootstrap.parquet", "batches.parquet")
 
 
@@ -85,45 +92,37 @@ class MetricsSettings:
         }
 
 
-def metrics_key(rwg_key: str, settings: MetricsSettings) -> str:
-    return stage_key(STAGE, VERSION, {"rwg": rwg_key, **settings.identity()})
+    def estimation(self) -> Estimation:
+        """The estimator settings every registered metric reads."""
+        return Estimation(bins=self.bins, temperature_range=tuple(self.temperature_range),
+                          resamples=self.resamples, bootstrap_seed=self.seed)
 
 
-def compute_metrics(returns, settings: MetricsSettings, *, progress: bool = False) -> dict[str, pd.DataFrame]:
-    """Every table of the stage from a return matrix (N, M)."""
-    returns = est.validate_returns(returns)
-    options = {"bins": settings.bins, "temperature_range": tuple(settings.temperature_range)}
-    pic = est.pic(returns, bins=settings.bins)
-    poic = est.poic(returns, temperature_range=tuple(settings.temperature_range))
-    score = est.random_sampling_score(returns)
-    draws = est.bootstrap(returns, seed=settings.seed, resamples=settings.resamples, progress=progress, **options)
-    summary = est.summarise_bootstrap(draws, {"pic": pic.pic, "poic": poic.poic})
-    row = {
-        "policies": returns.shape[0],
-        "episodes": returns.shape[1],
-        "pic": pic.pic,
-        "h_r": pic.h_r,
-        "h_r_given_theta": pic.h_r_given_theta,
-        "poic": poic.poic,
-        "temperature": poic.temperature,
-        "temperature_at_boundary": poic.at_boundary,
-        "h_o": poic.h_o,
-        "h_o_given_theta": poic.h_o_given_theta,
-        "r_min": score.r_min,
-        "r_max": score.r_max,
-        "r_mean": score.r_mean,
-        "score": score.score,
-        "variance": score.variance,
-    }
-    for _, s in summary.iterrows():
-        for column in ("mean", "sd", "ci_low", "ci_high"):
-            row[f"{s['metric']}_{column}"] = s[column]
-    batches = est.batch_estimates(returns, batches=settings.batches, **options)
+def metrics_key(rwg_key: str, settings: MetricsSettings, registry: Registry = DEFAULT_REGISTRY) -> str:
+    """Cache key: the RWG key, the settings and the registry's signature of the stage's metrics."""
+    return stage_key(STAGE, VERSION, {"rwg": rwg_key, **settings.identity(), "metrics": registry.signature(STAGE)})
+
+
+def compute_metrics(
+    returns, settings: MetricsSettings, *, registry: Registry = DEFAULT_REGISTRY, progress: bool = False
+) -> dict[str, pd.DataFrame]:
+    """Every table of the stage from a return matrix (N, M); see the module docstring."""
+    sample = Sample(returns, settings.estimation(), progress=progress)
+    metrics = registry.of_stage(STAGE)
+    row = {"policies": sample.returns.shape[0], "episodes": sample.returns.shape[1],
+           **point_estimates(sample, metrics)}
+    draws = bootstrap_estimates(sample, metrics)
+    bootstrapped = {m.name: row[m.name] for m in metrics if m.bootstrapped}
+    if bootstrapped:
+        for _, s in est.summarise_bootstrap(draws, bootstrapped).iterrows():
+            for column in ("mean", "sd", "ci_low", "ci_high"):
+                row[f"{s['metric']}_{column}"] = s[column]
     return {
         "metrics.parquet": pd.DataFrame([row]),
-        "policies.parquet": est.policy_statistics(returns),
+        "policies.parquet": est.policy_statistics(sample.returns),
         "bootstrap.parquet": draws,
-        "batches.parquet": batches,
+        "batches.parquet": batch_estimates(sample.returns, metrics, batches=settings.batches,
+                                           estimation=settings.estimation()),
     }
 
 
@@ -133,17 +132,19 @@ def run_metrics_stage(
     settings: MetricsSettings,
     *,
     label: str = "",
+    registry: Registry = DEFAULT_REGISTRY,
     force: bool = False,
     progress: bool = False,
 ) -> tuple[Artefact, bool]:
-    """Compute (or reuse) the metrics of one RWG artefact."""
+    """Compute (or reuse) the metrics of one RWG artefact; returns (artefact, cache hit)."""
     settings.validate()
-    key = metrics_key(rwg.key, settings)
+    key = metrics_key(rwg.key, settings, registry)
 
     def write(directory):
-        tables = compute_metrics(load_returns(rwg), settings, progress=progress)
+        tables = compute_metrics(load_returns(rwg), settings, registry=registry, progress=progress)
         for name, table in tables.items():
             table.to_parquet(directory / name, index=False)
         return {"label": label or rwg.manifest.get("label", "")}
 
-    return cache.get_or_compute(STAGE, key, write, config=settings.identity(), inputs={"rwg": rwg.key}, force=force)
+    config = {**settings.identity(), "metrics": [m.name for m in registry.of_stage(STAGE)]}
+    return cache.get_or_compute(STAGE, key, write, config=config, inputs={"rwg": rwg.key}, force=force)

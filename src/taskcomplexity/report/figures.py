@@ -1,16 +1,16 @@
 """The report's figures (seaborn on matplotlib), each saved as PNG and PDF.
 
 Every function builds a :class:`matplotlib.figure.Figure` without pyplot (no global figure
-registry, no backend switch, safe in workers) and returns it; :func:`save_figure` writes it. A task
-has one colour in every figure (:func:`task_palette`): hue by arm, dark for dense and light for
-sparse rewards; markers distinguish the reward type where points overlap.
+registry, no backend switch, safe in workers) and returns it; :func:`save_figure` writes it. Tasks
+are drawn with their study styles (:func:`taskcomplexity.report.labels.task_styles`): one colour per
+task in every figure, one marker per study group, names from the study's labels, study order.
 
 Units: returns are "return (sum of rewards)", entropies and mutual informations "nats".
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -22,7 +22,7 @@ import seaborn as sns
 from matplotlib.figure import Figure
 
 from taskcomplexity.metrics import policy_statistics
-from taskcomplexity.report.tables import ARM_LABELS, split_task_id, task_sort_key
+from taskcomplexity.report.labels import TaskStyle
 
 RETURN_UNIT = "sum of rewards"
 RETURN_LABEL = f"return ({RETURN_UNIT})"
@@ -33,30 +33,7 @@ WIDTH = 7.0
 MAX_EPISODE_DOTS = 200_000
 """Above this many episode returns, the Mₙ-versus-rank panel draws a fixed random subset of them."""
 
-TASK_COLOURS = {
-    "one_link_1m0-dense": "#1f5aa6",
-    "one_link_1m0-sparse": "#8fb6e8",
-    "one_link_1m65-dense": "#1e8449",
-    "one_link_1m65-sparse": "#8fd19e",
-    "two_link-dense": "#c0392b",
-    "two_link-sparse": "#f1948a",
-    "two_link_obstacle-dense": "#7d3c98",
-}
-"""Colour of each task of environments.md: hue by arm, dark = dense, light = sparse."""
-
-REWARD_MARKERS = {"dense": "o", "sparse": "^"}
 VARIANT_STYLES = {"sac": "-", "sac+her": "--"}
-
-SCATTER_METRICS = (
-    ("pic", "PIC (nats)"),
-    ("poic", "POIC (nats)"),
-    ("h_r", "H(R) (nats)"),
-    ("h_r_given_theta", "H(R|Θ) (nats)"),
-    ("h_o", "H(O) (nats)"),
-    ("h_o_given_theta", "H(O|Θ) (nats)"),
-    ("variance", "variance (sum of rewards)"),
-)
-"""Metrics plotted against the normalised score, with axis labels."""
 
 _RC = {
     "font.size": 8,
@@ -81,23 +58,6 @@ def paper_style():
     with mpl.rc_context(), sns.axes_style("ticks"):
         mpl.rcParams.update(_RC)
         yield
-
-
-def task_label(task: str) -> str:
-    """``two_link-dense`` → ``2-link, dense``; a name that is not a task id is returned as it is."""
-    arm, reward = split_task_id(task)
-    return f"{ARM_LABELS[arm]}, {reward}" if arm in ARM_LABELS else task
-
-
-def task_palette(tasks: Iterable[str]) -> dict[str, str]:
-    """One colour per task: the fixed colours of :data:`TASK_COLOURS`, others from a colour-blind palette.
-
-    The same task gets the same colour in every figure, whichever other tasks are present.
-    """
-    tasks = sorted(dict.fromkeys(tasks), key=task_sort_key)
-    extra = [t for t in tasks if t not in TASK_COLOURS]
-    spare = sns.color_palette("colorblind", max(len(extra), 1)).as_hex()
-    return {t: TASK_COLOURS.get(t) or spare[extra.index(t) % len(spare)] for t in tasks}
 
 
 def save_figure(figure: Figure, directory: Path, name: str) -> list[Path]:
@@ -207,47 +167,49 @@ def _log_counts(ax) -> None:
 
 
 def rwg_trio_figure(
-    task: str,
+    title: str,
     policies: pd.DataFrame,
     *,
     returns: np.ndarray | None = None,
-    colour: str | None = None,
+    colour: str = "#1f5aa6",
     max_dots: int = MAX_EPISODE_DOTS,
 ) -> Figure:
     """Figure (a): the RWG trio of one task (histogram of scaled Mₙ; Mₙ vs rank; √Vₙ vs Mₙ)."""
     with paper_style():
         figure, axes = _figure(1, 3, 2.2)
-        draw_rwg_trio(axes[0], policies, returns=returns, colour=colour or task_palette([task])[task],
-                      max_dots=max_dots)
-        figure.suptitle(task_label(task), fontsize=9, fontweight="bold")
+        draw_rwg_trio(axes[0], policies, returns=returns, colour=colour, max_dots=max_dots)
+        figure.suptitle(title, fontsize=9, fontweight="bold")
     return figure
 
 
 def rwg_trios_figure(
     policies: Mapping[str, pd.DataFrame],
+    styles: Mapping[str, TaskStyle],
     *,
     returns: Mapping[str, np.ndarray] | None = None,
     max_dots: int = MAX_EPISODE_DOTS,
 ) -> Figure:
-    """Figure (a) for a study: one row of the RWG trio per task, in table order, task colours.
+    """Figure (a) for a study: one row of the RWG trio per task, in study order, task colours.
 
     Parameters
     ----------
     policies : mapping of task id to pandas.DataFrame
         Each task's policy statistics.
+    styles : mapping of task id to TaskStyle
+        Names and colours, in study order.
     returns : mapping of task id to numpy.ndarray (N, M), optional
         Each task's returns, for the episode dots.
     max_dots : int
         Subsampling threshold of the episode dots, per task.
     """
-    tasks = sorted(policies, key=task_sort_key)
-    palette = task_palette(tasks)
+    tasks = [t for t in styles if t in policies]
     with paper_style():
         figure, axes = _figure(len(tasks), 3, 1.75 * len(tasks) + 0.2)
         for row, task in zip(axes, tasks, strict=True):
-            draw_rwg_trio(row, policies[task], returns=(returns or {}).get(task), colour=palette[task],
+            style = styles[task]
+            draw_rwg_trio(row, policies[task], returns=(returns or {}).get(task), colour=style.colour,
                           max_dots=max_dots)
-            row[0].set_title(task_label(task), loc="left", fontweight="bold", color=palette[task])
+            row[0].set_title(style.name, loc="left", fontweight="bold", color=style.colour)
         for row in axes[:-1]:
             for ax in row:
                 ax.set_xlabel("")
@@ -267,63 +229,85 @@ def pearson(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return float(result.statistic), float(result.pvalue)
 
 
-def score_scatter_figure(metrics: pd.DataFrame) -> Figure:
-    """Figure (b): normalised score score_R versus every metric across tasks, Pearson r and p per panel.
+def score_scatter_figure(
+    metrics: pd.DataFrame,
+    styles: Mapping[str, TaskStyle],
+    *,
+    y: tuple[str, str],
+    panels: Sequence[tuple[str, str]],
+) -> Figure:
+    """Figure (b): a score versus every metric across tasks, Pearson r and p per panel.
 
     Parameters
     ----------
     metrics : pandas.DataFrame
-        One row per task with ``task``, ``score`` and the columns of :data:`SCATTER_METRICS`.
+        One row per task with ``task``, the ``y`` column and the columns of ``panels``.
+    styles : mapping of task id to TaskStyle
+        Colours, markers and names.
+    y : (column, axis label)
+        The score on the vertical axes (e.g. the normalised score score_R).
+    panels : sequence of (column, axis label)
+        One panel per metric, in order; a legend of the tasks fills the next free panel.
     """
-    palette = task_palette(metrics["task"])
+    columns = 4
+    rows = max(1, -(-(len(panels) + 1) // columns))
+    chosen = metrics[metrics["task"].isin(list(styles))]
     with paper_style():
-        figure, axes = _figure(2, 4, 3.9, sharey=True)
-        for ax, (column, axis_label) in zip(axes.flat, SCATTER_METRICS, strict=False):
-            for _, row in metrics.iterrows():
-                _, reward = split_task_id(row["task"])
-                ax.scatter(row[column], row["score"], color=palette[row["task"]], s=28,
-                           marker=REWARD_MARKERS.get(reward, "s"), edgecolors="black", linewidths=0.4, zorder=3)
-            r, p = pearson(metrics[column].to_numpy(dtype=float), metrics["score"].to_numpy(dtype=float))
+        figure, axes = _figure(rows, columns, 1.95 * rows, sharey=True)
+        for ax, (column, axis_label) in zip(axes.flat, panels, strict=False):
+            for _, row in chosen.iterrows():
+                style = styles[row["task"]]
+                ax.scatter(row[column], row[y[0]], color=style.colour, s=28, marker=style.marker,
+                           edgecolors="black", linewidths=0.4, zorder=3)
+            r, p = pearson(chosen[column].to_numpy(dtype=float), chosen[y[0]].to_numpy(dtype=float))
             ax.set_title("r = n/a" if not np.isfinite(r) else f"r = {r:.2f}, p = {p:.2g}")
             ax.set_xlabel(axis_label)
             ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=4))
             ax.margins(0.12)
         for ax in axes[:, 0]:
-            ax.set_ylabel("normalised score score_R")
-        legend = axes.flat[-1]
-        legend.axis("off")
+            ax.set_ylabel(y[1])
+        for ax in list(axes.flat)[len(panels):]:
+            ax.axis("off")
         handles = [
-            mpl.lines.Line2D([], [], linestyle="", marker=REWARD_MARKERS.get(split_task_id(t)[1], "s"),
-                             markerfacecolor=c, markeredgecolor="black", markeredgewidth=0.4, markersize=6,
-                             label=task_label(t))
-            for t, c in palette.items()
+            mpl.lines.Line2D([], [], linestyle="", marker=style.marker, markerfacecolor=style.colour,
+                             markeredgecolor="black", markeredgewidth=0.4, markersize=6, label=style.name)
+            for style in styles.values()
         ]
-        legend.legend(handles=handles, loc="center", frameon=False, title="task")
+        list(axes.flat)[len(panels)].legend(handles=handles, loc="center", frameon=False, title="task")
     return figure
 
 
 # (c) Bootstrap distributions ------------------------------------------------------------------
 
 
-def bootstrap_figure(draws: Mapping[str, pd.DataFrame], points: pd.DataFrame) -> Figure:
-    """Figure (c): bootstrap distributions of PIC and POIC per task.
+def bootstrap_figure(
+    draws: Mapping[str, pd.DataFrame],
+    points: pd.DataFrame,
+    styles: Mapping[str, TaskStyle],
+    metrics: Sequence[tuple[str, str]],
+) -> Figure:
+    """Figure (c): bootstrap distributions of each bootstrapped metric per task.
 
     Parameters
     ----------
     draws : mapping of task id to pandas.DataFrame
-        The metrics stage's ``bootstrap.parquet`` (``pic``, ``poic`` per resample).
+        The metrics stage's ``bootstrap.parquet`` (one column per metric, one row per resample).
     points : pandas.DataFrame
-        One row per task: ``task``, ``pic``, ``poic`` (point estimates), ``pic_ci_low``,
-        ``pic_ci_high``, ``poic_ci_low``, ``poic_ci_high`` (percentile 95 % intervals).
+        One row per task: ``task``, and per metric its point estimate and ``<metric>_ci_low``,
+        ``<metric>_ci_high`` (percentile 95 % interval).
+    styles : mapping of task id to TaskStyle
+        Names and colours, in study order.
+    metrics : sequence of (column, axis label)
+        One panel per metric.
     """
-    tasks = sorted(draws, key=task_sort_key)
-    palette = task_palette(tasks)
-    tidy = pd.concat([draws[t][["pic", "poic"]].assign(task=task_label(t)) for t in tasks], ignore_index=True)
-    colours = {task_label(t): palette[t] for t in tasks}
+    tasks = [t for t in styles if t in draws]
+    names = [m for m, _ in metrics]
+    tidy = pd.concat([draws[t][names].assign(task=styles[t].name) for t in tasks], ignore_index=True)
+    colours = {styles[t].name: styles[t].colour for t in tasks}
     indexed = points.set_index("task")
     with paper_style():
-        figure, axes = _figure(1, 2, 0.36 * len(tasks) + 0.9, sharey=True)
-        for ax, metric in zip(axes[0], ("pic", "poic"), strict=True):
+        figure, axes = _figure(1, len(metrics), 0.36 * len(tasks) + 0.9, sharey=True)
+        for ax, (metric, axis_label) in zip(axes[0], metrics, strict=True):
             sns.violinplot(data=tidy, x=metric, y="task", hue="task", palette=colours, order=list(colours),
                            legend=False, inner=None, cut=0, density_norm="width", linewidth=0.5, ax=ax)
             for position, task in enumerate(tasks):
@@ -331,7 +315,7 @@ def bootstrap_figure(draws: Mapping[str, pd.DataFrame], points: pd.DataFrame) ->
                 ax.plot([row[f"{metric}_ci_low"], row[f"{metric}_ci_high"]], [position, position],
                         color="black", linewidth=1.0)
                 ax.plot(row[metric], position, marker="D", color="black", markersize=3.5)
-            ax.set_xlabel(f"{metric.upper()} (nats)")
+            ax.set_xlabel(axis_label)
             ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
             ax.set_ylabel("")
             ax.grid(axis="x", linewidth=0.3, alpha=0.5)
@@ -361,43 +345,50 @@ def seed_band(values: pd.DataFrame, column: str) -> pd.DataFrame:
     return table.assign(low=table["mean"] - half, high=table["mean"] + half).reset_index()
 
 
-def sac_curves_figure(curves: pd.DataFrame) -> Figure:
-    """Figure (d): SAC evaluation return against env steps, dense and sparse panels, log x.
+def sac_curves_figure(curves: pd.DataFrame, styles: Mapping[str, TaskStyle]) -> Figure:
+    """Figure (d): SAC evaluation return against env steps, one panel per study group, log x.
 
     Lines are the mean across seeds of ``eval/return_mean``; bands are the 95 % t-interval of that
     mean (seeds ≥ 2). Evaluations at step 0 cannot be drawn on a log axis and are left out. Solid
-    lines are SAC, dashed SAC + HER.
+    lines are SAC, dashed SAC + HER. A study without groups gets one panel.
     """
     table = curves[curves["eval/return_mean"].notna() & (curves["env_step"] > 0)]
-    palette = task_palette(table["task"])
+    groups = list(dict.fromkeys(s.group for s in styles.values()))
     with paper_style():
-        figure, axes = _figure(1, 2, 2.8)
-        for ax, reward in zip(axes[0], ("dense", "sparse"), strict=True):
-            chosen = table[table["task"].map(lambda t, r=reward: split_task_id(t)[1] == r)]
-            groups = sorted(chosen.groupby(["task", "variant"]).groups, key=lambda k: (task_sort_key(k[0]), k[1]))
-            for task, variant in groups:
-                run = chosen[(chosen["task"] == task) & (chosen["variant"] == variant)]
-                band = seed_band(run, "eval/return_mean")
-                name = task_label(task).rsplit(",", 1)[0] + (" + HER" if variant == "sac+her" else "")
-                ax.plot(band["env_step"], band["mean"], color=palette[task], label=name,
-                        linestyle=VARIANT_STYLES.get(variant, ":"))
-                ax.fill_between(band["env_step"], band["low"], band["high"], color=palette[task], alpha=0.2,
-                                linewidth=0)
+        figure, axes = _figure(1, len(groups), 2.8)
+        for ax, group in zip(axes[0], groups, strict=True):
+            members = [t for t, s in styles.items() if s.group == group]
+            drawn = 0
+            for task in members:
+                style = styles[task]
+                for variant in sorted(table.loc[table["task"] == task, "variant"].unique()):
+                    run = table[(table["task"] == task) & (table["variant"] == variant)]
+                    band = seed_band(run, "eval/return_mean")
+                    name = (style.label if group is not None else style.name) + (
+                        " + HER" if variant == "sac+her" else "")
+                    ax.plot(band["env_step"], band["mean"], color=style.colour, label=name,
+                            linestyle=VARIANT_STYLES.get(variant, ":"))
+                    ax.fill_between(band["env_step"], band["low"], band["high"], color=style.colour, alpha=0.2,
+                                    linewidth=0)
+                    drawn += 1
             ax.set_xscale("log")
-            ax.set_title(f"{reward} reward")
+            if group is not None:
+                ax.set_title(group)
             ax.set_xlabel("environment steps (log scale)")
             ax.set_ylabel(f"evaluation {RETURN_LABEL}")
-            if groups:
+            if drawn:
                 ax.legend(frameon=False, loc="upper left")
             else:
-                ax.text(0.5, 0.5, f"no {reward}-reward runs", transform=ax.transAxes, ha="center", va="center")
+                ax.text(0.5, 0.5, "no SAC runs", transform=ax.transAxes, ha="center", va="center")
     return figure
 
 
 # (e) Estimator diagnostics --------------------------------------------------------------------
 
 
-def bins_sweep_figure(bins_sweeps: Mapping[str, pd.DataFrame], subsamples: Mapping[str, pd.DataFrame]) -> Figure:
+def bins_sweep_figure(
+    bins_sweeps: Mapping[str, pd.DataFrame], subsamples: Mapping[str, pd.DataFrame], styles: Mapping[str, TaskStyle]
+) -> Figure:
     """Figure (e1): histogram PIC against the number of bins, of policies and of episodes.
 
     Parameters
@@ -406,16 +397,17 @@ def bins_sweep_figure(bins_sweeps: Mapping[str, pd.DataFrame], subsamples: Mappi
         ``bins_sweep.parquet`` (``bins``, ``pic``, ``pic_miller_madow``).
     subsamples : mapping of task id to pandas.DataFrame
         ``subsample_sweep.parquet`` (``policies``, ``episodes``, ``pic``).
+    styles : mapping of task id to TaskStyle
+        Names, colours and markers, in study order.
     """
-    tasks = sorted(bins_sweeps, key=task_sort_key)
-    palette = task_palette(tasks)
+    tasks = [t for t in styles if t in bins_sweeps]
     with paper_style():
         figure, axes = _figure(1, 3, 2.6, sharey=True)
         for task in tasks:
             sweep, sub = bins_sweeps[task], subsamples[task]
-            colour, marker = palette[task], REWARD_MARKERS.get(split_task_id(task)[1], "s")
+            colour, marker = styles[task].colour, styles[task].marker
             axes[0, 0].plot(sweep["bins"], sweep["pic"], color=colour, marker=marker, markersize=3,
-                            label=task_label(task))
+                            label=styles[task].name)
             axes[0, 0].plot(sweep["bins"], sweep["pic_miller_madow"], color=colour, linestyle=":", linewidth=1.0)
             by_policies = sub[sub["episodes"] == sub["episodes"].max()]
             axes[0, 1].plot(by_policies["policies"], by_policies["pic"], color=colour, marker=marker, markersize=3)
@@ -441,7 +433,9 @@ def bins_sweep_figure(bins_sweeps: Mapping[str, pd.DataFrame], subsamples: Mappi
     return figure
 
 
-def null_figure(nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.DataFrame]) -> Figure:
+def null_figure(
+    nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.DataFrame], styles: Mapping[str, TaskStyle]
+) -> Figure:
     """Figure (e2): observed PIC and POIC of each task against their permutation null.
 
     The observed value is an open ring, so that a null lying on top of it stays visible.
@@ -452,9 +446,10 @@ def null_figure(nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.Da
         ``null.parquet`` (``pic``, ``poic`` per permutation).
     summaries : mapping of task id to pandas.DataFrame
         ``null_summary.parquet`` (``metric``, ``observed``, ``null_mean``, ``null_sd``).
+    styles : mapping of task id to TaskStyle
+        Names and colours, in study order.
     """
-    tasks = sorted(nulls, key=task_sort_key)
-    palette = task_palette(tasks)
+    tasks = [t for t in styles if t in nulls]
     with paper_style():
         figure, axes = _figure(1, 2, 0.32 * len(tasks) + 0.9, sharey=True)
         for ax, metric in zip(axes[0], ("pic", "poic"), strict=True):
@@ -466,12 +461,12 @@ def null_figure(nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.Da
                 ax.errorbar(row["null_mean"], position, xerr=row["null_sd"], color="0.3", capsize=2,
                             linewidth=0.8, marker="s", markersize=3,
                             label="null mean ± sd" if position == 0 else None, zorder=3)
-                ax.scatter(row["observed"], position, s=60, facecolors="none", edgecolors=palette[task],
+                ax.scatter(row["observed"], position, s=60, facecolors="none", edgecolors=styles[task].colour,
                            linewidths=1.6, label="observed" if position == 0 else None, zorder=4)
             ax.set_xlabel(f"{metric.upper()} (nats)")
             ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
             ax.grid(axis="x", linewidth=0.3, alpha=0.5)
-        axes[0, 0].set_yticks(range(len(tasks)), [task_label(t) for t in tasks])
+        axes[0, 0].set_yticks(range(len(tasks)), [styles[t].name for t in tasks])
         axes[0, 0].invert_yaxis()  # the axes share y: invert once, first task on top
         axes[0, 1].legend(frameon=False, loc="best")
     return figure

@@ -1,9 +1,18 @@
 """The verdict: does a complexity metric agree with the tasks' known relative difficulty?
 
-The known relations and total orders are study data (:class:`taskcomplexity.study.Study`; the
-paper's are in ``conf/study/paper.yaml``). ``metrics.md`` (§ The verdict) asks, for every metric and
-relation, whether the metric orders the two tasks correctly and whether the difference is
-significant, and per metric for the agreement counts and Kendall's τ against each known total order.
+``metrics.md`` (§ The verdict) asks, for every metric and known relation, whether the metric orders
+the two tasks as known and whether the difference is significant; per metric, the counts of
+outcomes, Kendall's τ against each known total order and, when the study gives reference scores,
+their Pearson and Spearman correlation with the metric. The relations, orders and reference scores
+are study data (:class:`taskcomplexity.study.Study`); directions come from the metric registry.
+
+Outcomes of one (metric, relation):
+
+- ``undefined``: a value of either task is missing or not finite (e.g. score_R of a task whose
+  returns are all equal, or SAC on a task it skipped);
+- ``not significant``: Welch's two-sided test on the two tasks' samples gives p >= alpha, or it
+  cannot be run (fewer than 2 finite samples on a side: never assumed significant);
+- ``agree`` / ``contradict``: significant, and the metric orders the pair as known / the other way.
 """
 
 from __future__ import annotations
@@ -15,10 +24,11 @@ import pandas as pd
 import scipy.stats
 
 from taskcomplexity.metrics._validation import check_fraction
-from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL, welch_test
+from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL, welch_matrix, welch_test
+from taskcomplexity.metrics.registry import Registry
 from taskcomplexity.study import Relation
 
-OUTCOMES = ("agree", "contradict", "not significant")
+OUTCOMES = ("agree", "contradict", "not significant", "undefined")
 """Possible outcomes of one (metric, relation) verdict."""
 
 VERDICT_COLUMNS = (
@@ -26,173 +36,228 @@ VERDICT_COLUMNS = (
     "easier",
     "harder",
     "kind",
-    "higher_is_easier",
     "value_easier",
     "value_harder",
+    "pvalue",
+    "outcome",
+    "higher_is_easier",
     "difference",
     "agrees",
     "significant",
-    "pvalue",
-    "outcome",
+    "samples_easier",
+    "samples_harder",
 )
-"""Columns of the table :func:`verdict` returns."""
+"""Columns of the table :func:`judge` returns."""
+
+SUMMARY_COUNTS = ("relations", "agreements", "contradictions", "not_significant", "undefined")
+"""Count columns of :func:`summarise` (``relations`` counts every outcome)."""
 
 
-def verdict(
+def judge(
     values: pd.DataFrame,
-    *,
-    higher_is_easier: Mapping[str, bool],
-    samples: pd.DataFrame | None = None,
-    pvalues: pd.DataFrame | None = None,
-    alpha: float = SIGNIFICANCE_LEVEL,
+    samples: pd.DataFrame,
     relations: Iterable[Relation],
+    *,
+    registry: Registry,
+    alpha: float = SIGNIFICANCE_LEVEL,
 ) -> pd.DataFrame:
-    """Check every metric against every given relation between the tasks present.
+    """Every metric present in ``values`` against every relation.
 
     Parameters
     ----------
     values : pandas.DataFrame
-        Point estimates, columns ``task``, ``metric``, ``value``; one row per (task, metric).
-    higher_is_easier : mapping of str to bool
-        For every metric in ``values``: True when a higher value means an easier task (PIC, POIC).
-    samples : pandas.DataFrame, optional
-        Per-task samples of each metric for the significance test (batch estimates or bootstrap
-        draws), columns ``task``, ``metric``, ``value``, several rows per (task, metric). The test
-        is :func:`~taskcomplexity.metrics.batches.welch_test` between the two tasks.
-    pvalues : pandas.DataFrame, optional
-        Used when ``samples`` is not given: columns ``metric``, ``task_a``, ``task_b``, ``pvalue``
-        (for example :func:`~taskcomplexity.metrics.batches.welch_matrix` rows with a metric
-        column); a pair may be listed in either order. With neither, every difference counts as
-        significant and the p-value is NaN.
-    alpha : float, default 0.005
-        A difference is significant when ``p < alpha``.
+        Point values, columns ``task``, ``metric``, ``value``; at most one row per (task, metric).
+        Values may be NaN or infinite (the outcome is then "undefined").
+    samples : pandas.DataFrame
+        Samples of the same metrics for Welch's test (policy batches or SAC seeds), columns
+        ``task``, ``metric``, ``value``, several rows per (task, metric); non-finite ones are dropped.
     relations : iterable of Relation
-        Relations to check (a study's); those whose tasks lack a value are skipped.
+        The study's known relations, in order.
+    registry : Registry
+        Directions of the metrics; every metric of ``values`` must be registered.
+    alpha : float, default 0.005
+        A difference is significant when p < alpha.
 
     Returns
     -------
-    pandas.DataFrame, one row per (metric, relation) with both values present
-        Columns of :data:`VERDICT_COLUMNS`. ``difference`` is ``value_easier - value_harder``;
-        ``agrees`` is whether the metric orders the pair as known (strictly); ``outcome`` is
-        "not significant" when ``p >= alpha`` (or p is NaN), otherwise "agree" or "contradict".
+    pandas.DataFrame, one row per (metric, relation), metrics in registry order
+        Columns of :data:`VERDICT_COLUMNS`: the two values (NaN when missing), the p-value (NaN
+        when untested), the outcome (:data:`OUTCOMES`), the direction, ``difference`` =
+        value_easier − value_harder, ``agrees`` (the values order the pair as known, strictly),
+        ``significant`` and the sample sizes tested on each side.
     """
-    points = _tidy(values, "values")
-    duplicated = points.duplicated(["task", "metric"])
+    values, samples = _tidy(values, "values"), _tidy(samples, "samples")
+    duplicated = values.duplicated(["task", "metric"])
     if duplicated.any():
-        task, metric = points.loc[duplicated, ["task", "metric"]].iloc[0]
+        task, metric = values.loc[duplicated, ["task", "metric"]].iloc[0]
         raise ValueError(f"values must hold one row per (task, metric), got several for ({task!r}, {metric!r})")
     alpha = check_fraction(alpha, "alpha")
-    metrics = list(dict.fromkeys(points["metric"]))
-    unknown = [metric for metric in metrics if metric not in higher_is_easier]
+    metrics = registry.order(values["metric"])
+    unknown = [m for m in metrics if m not in registry]
     if unknown:
-        raise ValueError(f"higher_is_easier must give a direction for every metric in values, missing {unknown}")
-    if samples is not None:
-        samples = _tidy(samples, "samples")
-    if pvalues is not None:
-        pvalues = _pvalue_lookup(pvalues)
+        raise ValueError(f"values names metrics the registry does not know: {unknown}")
     relations = tuple(relations)
-
-    point = points.set_index(["metric", "task"])["value"]
+    point = values.set_index(["metric", "task"])["value"].astype(np.float64)
+    finite = samples[np.isfinite(samples["value"].to_numpy(dtype=np.float64))]
+    draws = {key: group.to_numpy(dtype=np.float64) for key, group in finite.groupby(["metric", "task"])["value"]}
     rows = []
     for metric in metrics:
-        direction = bool(higher_is_easier[metric])
+        direction = registry[metric].higher_is_easier
         for relation in relations:
-            if (metric, relation.easier) not in point.index or (metric, relation.harder) not in point.index:
-                continue
-            value_easier = float(point[(metric, relation.easier)])
-            value_harder = float(point[(metric, relation.harder)])
-            agrees = value_easier > value_harder if direction else value_easier < value_harder
-            pvalue = _pvalue(metric, relation, samples, pvalues)
-            significant = bool(pvalue < alpha) if samples is not None or pvalues is not None else True
-            outcome = "not significant" if not significant else ("agree" if agrees else "contradict")
-            rows.append(
-                {
-                    "metric": metric,
-                    "easier": relation.easier,
-                    "harder": relation.harder,
-                    "kind": relation.kind,
-                    "higher_is_easier": direction,
-                    "value_easier": value_easier,
-                    "value_harder": value_harder,
-                    "difference": value_easier - value_harder,
-                    "agrees": bool(agrees),
-                    "significant": significant,
-                    "pvalue": pvalue,
-                    "outcome": outcome,
-                }
-            )
+            easy = float(point.get((metric, relation.easier), np.nan))
+            hard = float(point.get((metric, relation.harder), np.nan))
+            a = draws.get((metric, relation.easier), np.empty(0))
+            b = draws.get((metric, relation.harder), np.empty(0))
+            defined = bool(np.isfinite(easy) and np.isfinite(hard))
+            pvalue = welch_test(a, b).pvalue if defined and a.size >= 2 and b.size >= 2 else float("nan")
+            agrees = defined and (easy > hard if direction else easy < hard)
+            significant = bool(pvalue < alpha)
+            if not defined:
+                outcome = "undefined"
+            elif not significant:
+                outcome = "not significant"
+            else:
+                outcome = "agree" if agrees else "contradict"
+            rows.append({
+                "metric": metric, "easier": relation.easier, "harder": relation.harder, "kind": relation.kind,
+                "value_easier": easy, "value_harder": hard, "pvalue": pvalue, "outcome": outcome,
+                "higher_is_easier": direction, "difference": easy - hard, "agrees": bool(agrees),
+                "significant": significant, "samples_easier": int(a.size), "samples_harder": int(b.size),
+            })
     return pd.DataFrame(rows, columns=list(VERDICT_COLUMNS))
 
 
-def verdict_summary(
-    verdict_table: pd.DataFrame, values: pd.DataFrame, orders: Mapping[str, Iterable[str]] | None = None
+def summarise(
+    verdict: pd.DataFrame,
+    values: pd.DataFrame,
+    *,
+    registry: Registry,
+    orders: Mapping[str, Iterable[str]] | None = None,
+    reference: Mapping[str, float] | None = None,
 ) -> pd.DataFrame:
-    """Per metric: agreements, contradictions, non-significant relations and Kendall's τ.
+    """Per metric: outcome counts, Kendall's τ per known order, correlation with the reference scores.
 
     Parameters
     ----------
-    verdict_table : pandas.DataFrame
-        Output of :func:`verdict` (its ``higher_is_easier`` column orients τ).
+    verdict : pandas.DataFrame
+        Output of :func:`judge` (may be empty: a study without relations).
     values : pandas.DataFrame
-        The point estimates given to :func:`verdict` (columns ``task``, ``metric``, ``value``).
+        The point values given to :func:`judge` (``task``, ``metric``, ``value``).
+    registry : Registry
+        Directions and order of the metrics.
     orders : mapping of str to sequence of task ids, optional
         Named known total orders, easiest first (a study's ``orders``).
+    reference : mapping of task id to float, optional
+        Reference scores, higher = easier (a study's ``reference``).
 
     Returns
     -------
-    pandas.DataFrame, one row per metric of ``verdict_table``
-        ``metric``, ``relations``, ``agreements``, ``contradictions``, ``not_significant`` and, for
-        each order of ``orders``, ``kendall_tau_<name>``: Kendall's τ-b between the known
-        difficulty order and the difficulty the metric implies, over the tasks present (NaN with
-        fewer than 2). τ = +1 means the metric orders those tasks exactly as known, -1 exactly
-        reversed.
+    pandas.DataFrame, one row per metric of ``values`` (registry order)
+        ``metric``, the counts of :data:`SUMMARY_COUNTS`; for each order ``kendall_tau_<name>``:
+        Kendall's τ-b between the known order and the order the metric implies, over the tasks
+        with a finite value (NaN with fewer than 2; +1 = exactly as known, −1 = reversed); with
+        reference scores ``pearson_r``, ``pearson_p``, ``spearman_r``, ``spearman_p`` between the
+        scores and the metric's easiness (its value, negated when lower is easier), over the tasks
+        with both (NaN with fewer than 3 or a constant side).
     """
-    points = _tidy(values, "values").set_index(["metric", "task"])["value"]
+    values = _tidy(values, "values")
+    finite = values[np.isfinite(values["value"].to_numpy(dtype=np.float64))]
+    points = finite.set_index(["metric", "task"])["value"]
     rows = []
-    for metric, table in verdict_table.groupby("metric", sort=False):
-        direction = bool(table["higher_is_easier"].iloc[0])
-        row = {
-            "metric": metric,
-            "relations": len(table),
-            "agreements": int((table["outcome"] == "agree").sum()),
-            "contradictions": int((table["outcome"] == "contradict").sum()),
-            "not_significant": int((table["outcome"] == "not significant").sum()),
-        }
+    for metric in registry.order(values["metric"]):
+        sign = 1.0 if registry[metric].higher_is_easier else -1.0
+        outcomes = verdict.loc[verdict["metric"] == metric, "outcome"]
+        row = {"metric": metric, "relations": int(outcomes.size),
+               "agreements": int((outcomes == "agree").sum()),
+               "contradictions": int((outcomes == "contradict").sum()),
+               "not_significant": int((outcomes == "not significant").sum()),
+               "undefined": int((outcomes == "undefined").sum())}
         for name, order in (orders or {}).items():
             tasks = [task for task in order if (metric, task) in points.index]
             tau = float("nan")
             if len(tasks) >= 2:
-                known = np.arange(len(tasks))
                 implied = np.array([points[(metric, task)] for task in tasks], dtype=np.float64)
-                tau = float(scipy.stats.kendalltau(known, -implied if direction else implied).statistic)
+                tau = float(scipy.stats.kendalltau(np.arange(len(tasks)), -sign * implied).statistic)
             row[f"kendall_tau_{name}"] = tau
+        if reference:
+            tasks = [task for task in reference if (metric, task) in points.index]
+            x = np.array([reference[t] for t in tasks], dtype=np.float64)
+            y = sign * np.array([points[(metric, t)] for t in tasks], dtype=np.float64)
+            for name, test in (("pearson", scipy.stats.pearsonr), ("spearman", scipy.stats.spearmanr)):
+                r, p = _correlation(test, x, y)
+                row[f"{name}_r"], row[f"{name}_p"] = r, p
         rows.append(row)
-    return pd.DataFrame(rows)
+    columns = ["metric", *SUMMARY_COUNTS]
+    return pd.DataFrame(rows, columns=list(dict.fromkeys(columns + [k for r in rows for k in r])))
 
 
-def verdict_by_relation(verdict_table: pd.DataFrame) -> pd.DataFrame:
-    """Outcome of every relation under every metric, to see which verdicts survive a change of
-    estimator (for example PIC, its Miller–Madow correction and its nearest-neighbour estimate).
+def by_relation(verdict: pd.DataFrame, metrics: Iterable[str]) -> pd.DataFrame:
+    """Outcome of every relation under each of ``metrics``: does a verdict survive a change of estimator?
 
     Parameters
     ----------
-    verdict_table : pandas.DataFrame
-        Output of :func:`verdict` for several metrics.
+    verdict : pandas.DataFrame
+        Output of :func:`judge`.
+    metrics : iterable of str
+        Metrics to compare (e.g. the estimators of one quantity), in column order.
 
     Returns
     -------
     pandas.DataFrame
-        Index (``easier``, ``harder``, ``kind``) in the order of ``verdict_table``, one column of
-        outcomes per metric (empty where a metric lacks the pair), and ``unanimous``: whether
-        every metric that judged the relation reached the same outcome.
+        ``easier``, ``harder``, ``kind``, one column of outcomes per metric present, and
+        ``survives``: every present metric reached the same outcome. Empty (those columns only)
+        when fewer than two of ``metrics`` are present.
     """
+    metrics = [m for m in metrics if (verdict["metric"] == m).any()]
     index = ["easier", "harder", "kind"]
-    wide = verdict_table.pivot(index=index, columns="metric", values="outcome")
-    order = pd.MultiIndex.from_frame(verdict_table[index].drop_duplicates())
-    wide = wide.reindex(index=order, columns=list(dict.fromkeys(verdict_table["metric"])))
+    if len(metrics) < 2:
+        return pd.DataFrame(columns=[*index, "survives"])
+    chosen = verdict[verdict["metric"].isin(metrics)]
+    wide = chosen.pivot(index=index, columns="metric", values="outcome")
+    order = pd.MultiIndex.from_frame(chosen[index].drop_duplicates())
+    wide = wide.reindex(index=order, columns=metrics)
     wide.columns.name = None
-    wide["unanimous"] = wide.nunique(axis=1, dropna=True) <= 1
-    return wide.fillna("")
+    wide["survives"] = wide.nunique(axis=1, dropna=True) <= 1
+    return wide.fillna("").reset_index()
+
+
+def pairwise_welch(samples: pd.DataFrame, *, registry: Registry, alpha: float = SIGNIFICANCE_LEVEL) -> pd.DataFrame:
+    """Welch's test between every ordered pair of tasks, per metric (the paper's significance matrices).
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        Tidy ``task``, ``metric``, ``value`` samples (batches or seeds); non-finite ones are dropped.
+    registry : Registry
+        Order of the metrics.
+    alpha : float
+        Significance cut-off.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``metric``, ``task_a``, ``task_b``, ``statistic`` (positive when a's mean is higher),
+        ``pvalue``, ``significant``; tasks in the order of ``samples``; only metrics with at least
+        2 finite samples on each of at least 2 tasks.
+    """
+    samples = _tidy(samples, "samples")
+    samples = samples[np.isfinite(samples["value"].to_numpy(dtype=np.float64))]
+    parts = []
+    for metric in registry.order(samples["metric"]):
+        chosen = samples[samples["metric"] == metric]
+        draws = {t: g.to_numpy(dtype=np.float64) for t, g in chosen.groupby("task", sort=False)["value"]}
+        draws = {t: d for t, d in draws.items() if d.size >= 2}
+        if len(draws) >= 2:
+            parts.append(welch_matrix(draws, alpha=alpha).assign(metric=metric))
+    columns = ["metric", "task_a", "task_b", "statistic", "pvalue", "significant"]
+    return pd.concat(parts, ignore_index=True)[columns] if parts else pd.DataFrame(columns=columns)
+
+
+def _correlation(test, x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    if x.size < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return float("nan"), float("nan")
+    result = test(x, y)
+    return float(result.statistic), float(result.pvalue)
 
 
 def _tidy(table: pd.DataFrame, name: str) -> pd.DataFrame:
@@ -200,45 +265,4 @@ def _tidy(table: pd.DataFrame, name: str) -> pd.DataFrame:
     if not isinstance(table, pd.DataFrame) or not required <= set(table.columns):
         columns = list(table.columns) if isinstance(table, pd.DataFrame) else type(table).__name__
         raise ValueError(f"{name} must be a DataFrame with columns task, metric, value, got {columns}")
-    if not np.all(np.isfinite(table["value"].to_numpy(dtype=np.float64))):
-        raise ValueError(f"{name} must hold finite values")
     return table
-
-
-def _pvalue_lookup(pvalues: pd.DataFrame) -> dict[tuple[str, str, str], float]:
-    required = {"metric", "task_a", "task_b", "pvalue"}
-    if not isinstance(pvalues, pd.DataFrame) or not required <= set(pvalues.columns):
-        raise ValueError("pvalues must be a DataFrame with columns metric, task_a, task_b, pvalue")
-    lookup = {}
-    columns = pvalues[["metric", "task_a", "task_b", "pvalue"]]
-    for metric, task_a, task_b, pvalue in columns.itertuples(index=False):
-        lookup[(metric, task_a, task_b)] = float(pvalue)
-        lookup.setdefault((metric, task_b, task_a), float(pvalue))
-    return lookup
-
-
-def _pvalue(
-    metric: str,
-    relation: Relation,
-    samples: pd.DataFrame | None,
-    pvalues: dict[tuple[str, str, str], float] | None,
-) -> float:
-    if samples is not None:
-        chosen = samples[samples["metric"] == metric]
-        tasks = (relation.easier, relation.harder)
-        draws = [chosen.loc[chosen["task"] == task, "value"].to_numpy() for task in tasks]
-        for task, values in zip(tasks, draws, strict=True):
-            if values.size < 2:
-                raise ValueError(
-                    f"samples must hold at least 2 values per (task, metric), got {values.size} "
-                    f"for ({task!r}, {metric!r})"
-                )
-        return welch_test(*draws).pvalue
-    if pvalues is not None:
-        key = (metric, relation.easier, relation.harder)
-        if key not in pvalues:
-            raise ValueError(
-                f"pvalues has no row for metric {metric!r} and tasks {relation.easier!r}, {relation.harder!r}"
-            )
-        return pvalues[key]
-    return float("nan")

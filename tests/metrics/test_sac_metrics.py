@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.report import sac_summary as sacs
+from taskcomplexity.metrics import sac as sacs
 
 
 def curve(task: str, seed: int, returns, *, variant: str = "sac", every: int = 1000) -> pd.DataFrame:
@@ -82,11 +82,3 @@ def test_missing_columns_and_bad_options_are_named():
         sacs.seed_summary(curve("two_link-dense", 0, [1, 2]).drop(columns="eval/return_mean"))
     with pytest.raises(ValueError, match="final_evaluations must be an integer >= 1, got 0"):
         sacs.seed_summary(curve("two_link-dense", 0, [1, 2]), final_evaluations=0)
-
-
-def test_the_formatted_summary_is_in_table_order_with_mean_and_sd():
-    curves = pd.concat([curve(t, s, [-10, -5, -1 - s]) for t in ("two_link-sparse", "one_link_1m0-dense")
-                        for s in (0, 1)])
-    table = sacs.format_sac_summary(sacs.sac_summary(sacs.seed_summary(curves, final_evaluations=1)))
-    assert table["Reward"].tolist() == ["dense", "sparse"]
-    assert table["Final return"].iloc[0] == "-1.50 ± 0.71"

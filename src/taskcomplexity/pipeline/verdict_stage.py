@@ -1,0 +1,144 @@
+"""The verdict stage: a study's metrics (+ diagnostics, SAC) artefacts and its relations → the verdict.
+
+Outputs under ``<cache>/verdict/<key>/``:
+
+- ``verdict.parquet``: one row per (metric, relation), metrics in registry order, relations in study
+  order (columns :data:`taskcomplexity.verdict.VERDICT_COLUMNS`: ``metric, easier, harder, kind,
+  value_easier, value_harder, pvalue, outcome`` and the direction, difference, significance and
+  sample sizes);
+- ``summary.parquet``: one row per metric: outcome counts, Kendall's τ per study order, Pearson and
+  Spearman r with the study's reference scores (when it gives them);
+- ``values.parquet`` / ``samples.parquet``: the tidy values (``task, metric, value``) judged and
+  the samples of their Welch tests;
+- ``welch.parquet``: Welch's test between every ordered pair of tasks for every metric with at least
+  2 finite samples on each of at least 2 tasks (``metric, task_a, task_b, statistic, pvalue,
+  significant``): the matrices of the paper's significance tests;
+- ``sac_per_seed.parquet`` (with SAC curves): final return, normalised final return and AUC, and
+  steps to 90 % per (task, variant, seed).
+
+The key hashes the metrics and diagnostics keys of every task, a content hash of the SAC curves,
+the study's relations, orders and reference scores, the significance cut-off and the registry's
+signature, so any change upstream (or a new metric) recomputes the verdict.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+from collections.abc import Mapping
+
+import pandas as pd
+
+from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.pipeline.cache import Artefact, Cache
+from taskcomplexity.pipeline.keys import stage_key
+from taskcomplexity.study import Study
+from taskcomplexity.verdict import gather, judge, pairwise_welch, summarise
+from taskcomplexity.verdict.gather import RETURN_MATRIX_STAGES
+
+log = logging.getLogger(__name__)
+
+STAGE = "verdict"
+VERSION = 1
+FILES = ("verdict.parquet", "summary.parquet", "values.parquet", "samples.parquet", "welch.parquet")
+SAC_FILE = "sac_per_seed.parquet"
+
+
+def curves_digest(curves: pd.DataFrame | None) -> str | None:
+    """Content hash of a SAC curve table (None without curves): the verdict's key of its SAC input."""
+    if curves is None or curves.empty:
+        return None
+    digest = hashlib.sha256(",".join(map(str, curves.columns)).encode())
+    digest.update(pd.util.hash_pandas_object(curves, index=False).to_numpy().tobytes())
+    return digest.hexdigest()[:16]
+
+
+def verdict_key(
+    study: Study,
+    metrics: Mapping[str, str],
+    diagnostics: Mapping[str, str],
+    sac: str | None,
+    *,
+    alpha: float,
+    registry: Registry,
+) -> str:
+    """Cache key of the verdict of ``study`` over the artefact keys given (task id → key)."""
+    ids = list(metrics)
+    payload = {
+        "metrics": dict(metrics),
+        "diagnostics": dict(diagnostics),
+        "sac": sac,
+        "relations": [[r.easier, r.harder, r.kind] for r in study.relations_among(ids)],
+        "orders": {name: list(order) for name, order in study.orders.items()},
+        "reference": dict(study.reference),
+        "alpha": float(alpha),
+        "registry": registry.signature(),
+    }
+    return stage_key(STAGE, VERSION, payload)
+
+
+def run_verdict_stage(
+    cache: Cache,
+    study: Study,
+    metrics: Mapping[str, Artefact],
+    *,
+    diagnostics: Mapping[str, Artefact] | None = None,
+    sac_curves: pd.DataFrame | None = None,
+    alpha: float = SIGNIFICANCE_LEVEL,
+    registry: Registry = DEFAULT_REGISTRY,
+    force: bool = False,
+) -> tuple[Artefact, bool]:
+    """Compute (or reuse) the verdict of a study.
+
+    Parameters
+    ----------
+    cache : Cache
+        The artefact store.
+    study : Study
+        Its relations (among the tasks of ``metrics``), orders and reference scores are judged.
+    metrics : mapping of task id to Artefact
+        Each task's metrics artefact, in study order.
+    diagnostics : mapping of task id to Artefact, optional
+        Each task's diagnostics artefact (the other estimators); None leaves them out.
+    sac_curves : pandas.DataFrame, optional
+        Tidy SAC curves of the study (``task`` = study id); None or empty leaves SAC out.
+    alpha : float, default 0.005
+        Significance cut-off.
+    registry : Registry
+        The metrics to judge and their directions.
+    force : bool
+        Recompute even when the key exists.
+
+    Returns
+    -------
+    (Artefact, bool)
+        The artefact and whether the cache already held it.
+    """
+    diagnostics = {t: a for t, a in (diagnostics or {}).items() if t in metrics}
+    sac = curves_digest(sac_curves)
+    key = verdict_key(study, {t: a.key for t, a in metrics.items()}, {t: a.key for t, a in diagnostics.items()},
+                      sac, alpha=alpha, registry=registry)
+
+    def write(directory):
+        tables = {}
+        for stage, artefacts in (("metrics", metrics), ("diagnostics", diagnostics)):
+            files = RETURN_MATRIX_STAGES[stage]
+            tables[stage] = {t: {f: pd.read_parquet(a.file(f)) for f in files} for t, a in artefacts.items()}
+        values, samples, per_seed = gather(tables, registry=registry, sac_curves=sac_curves)
+        relations = study.relations_among(list(metrics))
+        table = judge(values, samples, relations, registry=registry, alpha=alpha)
+        summary = summarise(table, values, registry=registry, orders=study.orders, reference=study.reference)
+        welch = pairwise_welch(samples, registry=registry, alpha=alpha)
+        for name, frame in (("verdict.parquet", table), ("summary.parquet", summary), ("values.parquet", values),
+                            ("samples.parquet", samples), ("welch.parquet", welch)):
+            frame.to_parquet(directory / name, index=False)
+        if per_seed is not None:
+            per_seed.to_parquet(directory / SAC_FILE, index=False)
+        return {"label": f"{study.name}: {len(relations)} relations × {summary.shape[0]} metrics"}
+
+    config = {"study": study.name, "tasks": list(metrics), "alpha": float(alpha), "metrics": list(registry.names),
+              "sac": sac}
+    inputs = {**{f"metrics/{t}": a.key for t, a in metrics.items()},
+              **{f"diagnostics/{t}": a.key for t, a in diagnostics.items()}}
+    return cache.get_or_compute(STAGE, key, write, config=config, inputs=inputs, force=force)

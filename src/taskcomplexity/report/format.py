@@ -1,0 +1,84 @@
+"""Number and text formatting shared by every table of the report (one format per kind of number)."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+MISSING = "–"
+"""What a missing or non-finite number shows as."""
+
+
+def decimals(reference: float, digits: int = 3) -> int:
+    """Decimals showing ``digits`` significant digits of a small ``reference``, else ``digits`` decimals."""
+    if not np.isfinite(reference) or abs(reference) >= 0.1 or reference == 0:
+        return digits
+    return int(min(8, digits - 1 - np.floor(np.log10(abs(reference)))))
+
+
+def num(value: float, digits: int = 3, *, like: float | None = None) -> str:
+    """A number for a table: 3 decimals, or 3 significant digits below 0.1 (decimals of ``like`` if given)."""
+    if value is None or not np.isfinite(value):
+        return MISSING
+    if abs(value) >= 1e5:
+        return f"{value:.{digits}g}"
+    return f"{value:.{decimals(value if like is None else like, digits)}f}"
+
+
+_SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def pvalue(value: float) -> str:
+    """A p-value to 2 significant digits, small ones as ``5.6×10⁻¹⁰`` (no break inside)."""
+    if value is None or not np.isfinite(value):
+        return MISSING
+    if value < 1e-10:
+        return "<\u00a010⁻¹⁰"
+    if value >= 1e-3:
+        return f"{value:.2g}"
+    mantissa, exponent = f"{value:.1e}".split("e")
+    return f"{mantissa}×10{str(int(exponent)).translate(_SUPERSCRIPTS)}"
+
+
+def statistic(value: float) -> str:
+    """A test statistic to 3 significant digits, without exponent notation, with a true minus sign."""
+    if value is None or np.isnan(value):
+        return MISSING
+    text = f"{value:.0f}" if abs(value) >= 1000 else f"{value:.3g}"
+    return text.replace("-", "−")
+
+
+def mean_sd(mean: float, sd: float, digits: int = 3) -> str:
+    """``mean ± sd`` with the same number of decimals on both sides."""
+    if mean is None or not np.isfinite(mean):
+        return MISSING
+    places = decimals(mean, digits)
+    return f"{mean:.{places}f} ± {sd:.{places}f}" if np.isfinite(sd) else f"{mean:.{places}f}"
+
+
+def joined(values) -> str:
+    """Distinct values in order, comma-separated."""
+    return ", ".join(dict.fromkeys(str(v) for v in values))
+
+
+_LATEX = {
+    "−": "$-$", "×": "$\\times$", "✓": "$\\surd$", "✗": "$\\times$", "Θ": "$\\Theta$", "λ": "$\\lambda$",
+    "τ": "$\\tau$", "√": "$\\surd$", "ₙ": "$_n$", "′": "$'$", "·": "$\\cdot$", "\u00a0": "~",
+    "<": "$<$", ">": "$>$", "|": "$|$",
+}
+_SUPERSCRIPT_RUN = re.compile("[⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+")
+
+
+def latex_text(text: str) -> str:
+    """Replace the report's non-ASCII symbols by LaTeX that compiles with pdflatex (``10⁻⁴`` → ``10$^{-4}$``)."""
+    digits = str.maketrans("⁻⁰¹²³⁴⁵⁶⁷⁸⁹", "-0123456789")
+    text = _SUPERSCRIPT_RUN.sub(lambda m: "$^{" + m.group(0).translate(digits) + "}$", text)
+    for symbol, macro in _LATEX.items():
+        text = text.replace(symbol, macro)
+    return text
+
+
+def slug(text: str) -> str:
+    """A file-name-safe version of ``text``."""
+    return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_") or "ablation"

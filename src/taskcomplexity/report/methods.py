@@ -1,0 +1,65 @@
+"""The methods box: sampling, estimators, tests, directions, diagnostics, SAC and software, from the manifests."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from taskcomplexity.report.data import StudyData
+from taskcomplexity.report.format import joined
+
+
+def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
+    """(what, value) pairs of the methods box."""
+    requests = [data.results[t].request for t in data.tasks]
+    metrics_config = data.results[data.tasks[0]].metrics.manifest.get("config", {})
+    network = joined(f"MLP {'×'.join(map(str, r.network.hidden))} {'with' if r.network.bias else 'without'} biases"
+                     for r in requests)
+    prior = joined(r.prior.kind + (f" (variance {r.prior.variance:g})" if r.prior.kind == "normal" else "")
+                   for r in requests)
+    steps = joined(getattr(r.task, "max_steps", None) or "the env's own limit of" for r in requests)
+    directions = "; ".join(f"{m.label}: higher = {'easier' if m.higher_is_easier else 'harder'}"
+                           + (f" ({m.why})" if m.why else "") for m in data.registry)
+    items = [
+        ("Tasks", f"{len(data.tasks)}: " + "; ".join(data.name(t) for t in data.tasks)),
+        ("Random policies", f"{network}; weight prior {prior}; deterministic actions"),
+        ("Sampling", f"N = {joined(r.settings.policies for r in requests)} policies × M = "
+                     f"{joined(r.settings.episodes for r in requests)} episodes per task, {steps} steps per "
+                     f"episode, seed {joined(r.settings.seed for r in requests)}, "
+                     f"backend {joined(r.backend for r in requests)}"
+                     + ("; contacts from the batched contact model"
+                        if any(getattr(r, "models_contacts", False) for r in requests) else "")),
+        ("PIC", f"histogram with B = {int(metrics_config.get('bins', 0)):,} equal-width bins, nats"),
+        ("POIC", "deterministic temperature search over λ ∈ "
+                 f"[{', '.join(f'{x:g}' for x in metrics_config.get('temperature_range', []))}]"),
+        ("Uncertainty", f"bootstrap of the policies, {metrics_config.get('resamples', '?')} resamples "
+                        f"(seed {metrics_config.get('seed', '?')}), percentile 95 % intervals"),
+        ("Significance", f"Welch's t-test, two-sided, on {metrics_config.get('batches', '?')} consecutive "
+                         f"policy batches (SAC: on seeds); significant when p < {alpha:g}"),
+        ("Directions", directions),
+    ]
+    if data.diagnostics:
+        c = data.diagnostics_config
+        items.append(("Diagnostics", f"permutation null × {c.get('repeats', '?')} (seed {c.get('seed', '?')}); "
+                                     f"bins sweep {joined(c.get('bins_sweep', []))} (up to B); Miller–Madow; "
+                                     f"k-NN MI (k = {c.get('knn_neighbors', '?')})"))
+    else:
+        items.append(("Diagnostics", "not computed"))
+    if sac_curves is not None and not sac_curves.empty:
+        seeds = sorted(sac_curves["seed"].unique().tolist())
+        budgets = sorted(sac_curves.groupby("task")["env_step"].max().unique())
+        items.append(("SAC", f"variants {joined(sorted(sac_curves['variant'].unique()))}; seeds "
+                             f"{', '.join(map(str, seeds))}; budgets {joined(f'{int(b):,}' for b in budgets)} "
+                             "env steps per seed"))
+    else:
+        items.append(("SAC", "not computed"))
+    skipped = (sac_curves.attrs.get("sac_skipped") or {}) if sac_curves is not None else {}
+    if skipped:
+        items.append(("SAC skipped", "; ".join(f"{data.name(t)}: {why}" for t, why in skipped.items())))
+    versions = {}
+    for task in data.tasks:
+        for artefact in (data.results[task].rwg, data.results[task].metrics):
+            versions.update(artefact.manifest.get("versions", {}))
+    items.append(("Software", ", ".join(f"{k} {v}" for k, v in sorted(versions.items()))))
+    items.append(("Metrics artefacts", ", ".join(f"{data.name(t)}: {data.results[t].metrics.key}" for t in data.tasks)))
+    items.append(("Verdict artefact", data.verdict_key))
+    return tuple(items)

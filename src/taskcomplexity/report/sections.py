@@ -1,0 +1,244 @@
+"""The report's sections, in page order: random policies, SAC, estimator diagnostics, ablation, appendix."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import pandas as pd
+
+from taskcomplexity.report import figures as fig
+from taskcomplexity.report.data import StudyData, return_matrix
+from taskcomplexity.report.format import joined, slug
+from taskcomplexity.report.html import Paragraph, Section
+from taskcomplexity.report.sac_summary import format_sac_summary
+from taskcomplexity.report.tables import (
+    bins_display,
+    diagnostics_display,
+    interval_table,
+    statistics_table,
+    table1,
+    welch_display,
+)
+from taskcomplexity.report.verdict_tables import summary_display, survival_tables, verdict_display, verdict_matrix
+from taskcomplexity.report.writer import Writer
+
+SCORE = "score"
+"""The metric on the vertical axes of the score scatter (when registered)."""
+
+
+def _axis(label: str, unit: str) -> str:
+    return f"{label} ({unit})" if unit else label
+
+
+def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
+    """The verdict box's tables: the relation × metric matrix and the per-metric summary."""
+    blocks = []
+    if len(data.verdict["verdict"]):
+        matrix, tips = verdict_matrix(data)
+        words = matrix.replace({mark: outcome for outcome, mark in {
+            "agree": "✓", "contradict": "✗", "not significant": "–", "undefined": "?"}.items()})
+        blocks.append(writer.table(
+            matrix, "verdict_matrix", "Verdict by known relation.",
+            "✓ the metric orders the pair as known and the difference is significant; ✗ it orders them the "
+            "other way, significantly; – not significant (or untested); ? undefined (a value is missing or not "
+            "finite). Hover a cell for the values and p-value; the full verdict table in the appendix lists "
+            "them.", tips,
+            files=(words, f"Outcome of every metric on every known relation (significant at p < {alpha:g}, "
+                          "Welch's t-test)."),
+        ))
+    caption = ("Counts of outcomes over the known relations" if len(data.verdict["verdict"]) else
+               "The study gives no relation, so nothing is counted")
+    caption += ("; Kendall's τ between each known order of the study and the metric's order (+1: exactly as "
+                "known, −1: reversed)" if data.study.orders else "")
+    caption += ("; Pearson and Spearman r with the study's reference scores (higher = easier)"
+                if data.study.reference else "")
+    blocks.append(writer.table(summary_display(data), "verdict_summary", "Verdict per metric.", caption + "."))
+    return tuple(blocks)
+
+
+def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
+    """Random-weight guessing: the trio figure, Table 1, intervals, bootstrap, Welch matrices, scatter, statistics."""
+    registry = data.registry
+    subsampled = [t for t in data.tasks if data.returns[t].size > fig.MAX_EPISODE_DOTS]
+    dots = (f"For {', '.join(data.name(t) for t in subsampled)} a fixed random subset of "
+            f"{fig.MAX_EPISODE_DOTS:,} episode returns is drawn (of N·M) to keep the figure legible. "
+            if subsampled else "Every episode return is drawn. ")
+    bootstrapped = [m for m in registry.of_stage("metrics") if m.bootstrapped]
+    names = joined(m.label for m in bootstrapped)
+    blocks = [
+        Paragraph("Each task was sampled with random-weight guessing: random policies drawn from the weight "
+                  "prior, each run for M episodes. The figures show how the returns spread over policies; the "
+                  "tables give the information-theoretic metrics of the paper with their uncertainty."),
+        writer.figure(
+            [(fig.rwg_trios_figure(data.policies, data.styles, returns=data.returns), "rwg_trios")],
+            "Random-weight guessing statistics per task.",
+            "One row per task. Left: histogram of the min–max scaled mean return Mₙ′ of every policy "
+            "(log scale); a mass at 0 with a thin tail to 1 means good policies are rare. Middle: Mₙ "
+            "against its rank Rₙ (black) with every episode return S[n, e] as a faint red dot at its "
+            "policy's rank; the vertical spread of the dots is the within-policy noise that H(R|Θ) "
+            "measures. " + dots + "Right: the standard deviation √Vₙ of each policy's returns against its mean.",
+        ),
+    ]
+    if bootstrapped:
+        blocks += [
+            writer.table(table1(data), "table1", f"{names} of random policies.",
+                         f"Bootstrap mean ± sd ({joined(m.unit for m in bootstrapped)}), as Table 1 of the paper."),
+            writer.table(interval_table(data), "bootstrap_intervals", "Bootstrap intervals.",
+                         "Point estimate on the whole sample and percentile 95 % interval of the bootstrap, and "
+                         "the POIC temperature λ* (flagged when on a boundary of the search range)."),
+            writer.figure(
+                [(fig.bootstrap_figure(data.bootstrap, data.metrics, data.styles,
+                                       [(m.name, _axis(m.label, m.unit)) for m in bootstrapped]), "bootstrap")],
+                f"Bootstrap distributions of {names}.",
+                "Violins: the bootstrap draws of each task (resampling policies); black diamond: the point "
+                "estimate; black bar: the percentile 95 % interval. Overlapping violins are pairs the data cannot "
+                "order. A point estimate outside its own violin is the histogram estimator's bias at work: a "
+                "resample repeats policies, which removes distinct returns and lowers H(R).",
+            ),
+        ]
+    welch = data.verdict["welch"]
+    for metric in [m for m in registry if m.primary and (welch["metric"] == m.name).any()]:
+        matrix, tests = welch_display(data, metric.name)
+        batches = data.verdict["samples"]
+        sizes = joined(batches[batches["metric"] == metric.name].groupby("task").size())
+        blocks.append(writer.table(
+            matrix, f"welch_{metric.name}", f"Welch's t-tests of {metric.label}.",
+            f"Statistic (two-sided p-value) of row minus column, on the estimates of {sizes} consecutive policy "
+            f"batches; significant when p < {alpha:g}.", wrap=True,
+        ))
+        writer.data(tests, f"welch_{metric.name}_tidy")
+    if SCORE in registry and len(data.tasks) >= 1:
+        score = registry[SCORE]
+        panels = [(d.name, _axis(d.label, d.unit)) for m in registry.of_stage("metrics") if m.name != SCORE
+                  for d in ((m,) + tuple(x for x in m.details if x.shown))]
+        panels = [(name, label) for name, label in panels if name in data.metrics.columns]
+        blocks.append(writer.figure(
+            [(fig.score_scatter_figure(data.metrics, data.styles, y=(SCORE, f"normalised score {score.label}"),
+                                       panels=panels), "score_scatter")],
+            "Normalised score against every metric.",
+            "Each point is a task (marker: its study group). Panel titles give Pearson's r and its p-value "
+            f"across the {len(data.tasks)} tasks; with so few points only strong correlations are meaningful.",
+        ))
+    blocks.append(writer.table(statistics_table(data), "rwg_statistics", "Random-policy statistics.",
+                               "Worst policy mean r_min, best return r_max (sum of rewards), the metrics of the "
+                               "metrics stage without a bootstrap, and the entropies behind the bootstrapped "
+                               "ones (nats)."))
+    return Section("Random policies: the metrics of random-weight guessing", tuple(blocks))
+
+
+def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None) -> Section:
+    """The empirical order: SAC learning curves and their summary (or why there are none)."""
+    title = "Empirical difficulty: SAC"
+    if sac_curves is None or sac_curves.empty or data.sac_per_seed is None or data.sac_per_seed.empty:
+        skipped = (sac_curves.attrs.get("sac_skipped") or {}) if sac_curves is not None else {}
+        why = ("SAC was skipped for " + "; ".join(f"{data.name(t)} ({r})" for t, r in skipped.items()) + ". "
+               if skipped else "SAC curves were not computed for this report, so ")
+        return Section(title, (Paragraph(why + "the known complexity order is checked against the random-policy "
+                                         "metrics only. Run the SAC stage and rebuild the report to add the "
+                                         "empirical order."),))
+    seeds = int(data.sac_per_seed.groupby(["task", "variant"]).size().max())
+    grouped = "one panel per study group; " if any(s.group for s in data.styles.values()) else ""
+    return Section(title, (
+        writer.figure(
+            [(fig.sac_curves_figure(sac_curves, data.styles), "sac_curves")], "SAC learning curves.",
+            f"Mean evaluation return across seeds (up to {seeds}) against environment steps on a log axis, "
+            f"{grouped}the band is the 95 % t-interval of the mean across seeds (absent with one seed). Solid: "
+            "SAC; dashed: SAC + HER. Evaluations at step 0 are not drawn on the log axis. An easier task rises "
+            "earlier and higher.",
+        ),
+        writer.table(
+            format_sac_summary(data), "sac_summary", "SAC summary.",
+            "Mean ± sd across seeds of the final return (mean of the last 5 evaluations, sum of rewards), the "
+            "same normalised to [worst random policy mean, best return seen], the area under the normalised "
+            "curve (its mean over training) and the env steps to cover 90 % of the improvement from the first "
+            "evaluation to the final return.",
+        ),
+    ))
+
+
+def diagnostics_section(writer: Writer, data: StudyData) -> Section:
+    """How much of each task's PIC is estimator bias: sweeps, the permutation null, other estimators."""
+    title = "Can the PIC estimate be trusted?"
+    if not data.diagnostics:
+        return Section(title, (
+            Paragraph("The estimator diagnostics (permutation null, bins and subsample sweeps, Miller–Madow and "
+                      "nearest-neighbour estimates) were not computed for this report."),
+        ))
+    tasks = [t for t in data.tasks if t in data.diagnostics]
+    d = data.diagnostics
+    styles = {t: data.styles[t] for t in tasks}
+    knn = joined(f"{int(d[t]['estimators']['knn_policies'].iloc[0])} policies × "
+                 f"{int(d[t]['estimators']['knn_episodes'].iloc[0])} episodes"
+                 for t in tasks if "knn_policies" in d[t]["estimators"].columns)
+    others = joined(m.label for m in data.registry.of_stage("diagnostics"))
+    blocks = [
+        Paragraph("With continuous returns and many bins, almost every episode lands in its own bin, so the "
+                  "histogram PIC approaches ln(occupied bins) − ln M whatever the policies do. The diagnostics "
+                  "below measure how much of each task's PIC is this bias: the same estimator on returns "
+                  "permuted across policies (true MI = 0), its dependence on B, N and M, and other estimators "
+                  f"of the same mutual information ({others})."),
+        writer.figure(
+            [(fig.bins_sweep_figure({t: d[t]["bins_sweep"] for t in tasks},
+                                    {t: d[t]["subsample_sweep"] for t in tasks}, styles), "diagnostics_bins")],
+            "PIC depends on the estimator's settings.",
+            "Left: histogram PIC (solid) and its Miller–Madow correction (dotted) against the number of bins B. "
+            "Middle and right: histogram PIC at the report's B on nested random subsets of policies and of "
+            "episodes. A trustworthy estimate would be flat; a curve that keeps rising with B or N reflects "
+            "bin occupancy rather than information.",
+        ),
+        writer.figure(
+            [(fig.null_figure({t: d[t]["null"] for t in tasks}, {t: d[t]["null_summary"] for t in tasks}, styles),
+              "diagnostics_null")],
+            "Observed PIC and POIC against their permutation null.",
+            "Grey ticks: the estimator on returns shuffled across policies (true MI = 0); grey square and bar: "
+            "their mean ± sd; coloured ring: the observed value. Only the distance between the ring and the null "
+            "is evidence of information about the policy.",
+        ),
+        writer.table(diagnostics_display(data), "diagnostics_estimators", "Estimators of I(Θ; R).",
+                     "Histogram PIC and its permutation null (mean ± sd); the other registered estimators "
+                     + (f"(the k-nearest-neighbour one on {knn} per task)" if knn else "")
+                     + "; PIC minus its null in null standard deviations (z); POIC minus its null (z). All in nats."),
+        writer.table(bins_display(data), "diagnostics_bins", "PIC against the number of bins.",
+                     "Histogram PIC (Miller–Madow in parentheses), nats."),
+    ]
+    for quantity, table in survival_tables(data).items():
+        compared = list(table.columns[2:-1])
+        blocks.append(writer.table(
+            table, f"verdict_survival_{slug(quantity)}" if len(survival_tables(data)) > 1 else "verdict_survival",
+            "Does each verdict survive a change of estimator?",
+            f"Outcome of each known relation under every estimator of {quantity} ({', '.join(compared)}), each "
+            "tested with Welch's t-test on the same policy batches; 'yes' when all of them agree.",
+        ))
+    return Section(title, tuple(blocks))
+
+
+def ablation_section(writer: Writer, ablation: Mapping) -> Section:
+    """Overlaid RWG trios of the variants of a task (a study of kind ``variants``)."""
+    groups = ablation if all(isinstance(v, Mapping) for v in ablation.values()) else {"": ablation}
+    blocks = []
+    for title, variants in groups.items():
+        resolved = {name: (return_matrix(v.rwg) if hasattr(v, "rwg") else v) for name, v in variants.items()}
+        blocks.append(writer.figure(
+            [(fig.ablation_figure(resolved, title=str(title)), f"ablation_{slug(str(title))}")],
+            f"Ablation{': ' + str(title) if title else ''}.",
+            "The random-weight guessing trio of several samplers of the same task, overlaid: histogram of "
+            "the scaled policy means (log scale), the mean return against the rank as a fraction of N, and "
+            "√Vₙ against Mₙ. Variants: " + ", ".join(map(str, variants)) + ".",
+        ))
+    return Section("Ablation: the random-policy sampler", tuple(blocks))
+
+
+def appendix_section(writer: Writer, data: StudyData) -> Section:
+    """The full verdict table (and its tidy data)."""
+    verdict = data.verdict["verdict"]
+    writer.data(verdict.assign(label=verdict["metric"].map(data.registry.label)), "verdict_tidy")
+    writer.data(data.verdict["values"], "verdict_values")
+    if verdict.empty:
+        return Section("Appendix: the full verdict table", (
+            Paragraph("The study gives no relation, so there is no verdict table. Its metrics per task are in "
+                      "tables/verdict_values.csv."),))
+    full = writer.table(verdict_display(data), "verdict", "The full verdict.",
+                        "Every (metric, known relation): the two values, the outcome and the p-value of Welch's "
+                        "t-test, with the number of samples tested on each side (batches or seeds).")
+    return Section("Appendix: the full verdict table", (full,))
+

@@ -1,0 +1,14 @@
+"""The verdict: the study's known relations × the registry's metrics → outcomes (a cached stage).
+
+Modules
+-------
+judge    every (metric, relation) outcome, per-metric counts, Kendall's τ and reference correlations
+gather   tidy values and samples of every registered metric from the stages' tables
+
+The stage itself (cache key, files) is :mod:`taskcomplexity.pipeline.verdict_stage`.
+"""
+
+from taskcomplexity.verdict.gather import gather
+from taskcomplexity.verdict.judge import OUTCOMES, VERDICT_COLUMNS, by_relation, judge, pairwise_welch, summarise
+
+__all__ = ["OUTCOMES", "VERDICT_COLUMNS", "by_relation", "gather", "judge", "pairwise_welch", "summarise"]

@@ -1,0 +1,72 @@
+"""Tidy values and samples of every registered metric, from the tables of the stages that estimate them.
+
+========================  ======================================  ==================================
+stage of the metric       values                                  samples of the Welch test
+========================  ======================================  ==================================
+metrics                   ``metrics.parquet`` (whole sample)      ``batches.parquet`` (policy batches)
+diagnostics               ``estimators.parquet`` (whole sample)   its ``batches.parquet``
+sac                       mean over seeds                         one value per seed
+========================  ======================================  ==================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import pandas as pd
+
+from taskcomplexity.metrics.evaluate import TIDY_COLUMNS, sac_estimates, tidy_values
+from taskcomplexity.metrics.registry import Registry
+from taskcomplexity.metrics.sac import seed_summary
+
+RETURN_MATRIX_STAGES = {"metrics": ("metrics.parquet", "batches.parquet"),
+                        "diagnostics": ("estimators.parquet", "batches.parquet")}
+"""Per stage estimating on return matrices: (file of the point values, file of the batch samples)."""
+
+
+def gather(
+    tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]],
+    *,
+    registry: Registry,
+    sac_curves: pd.DataFrame | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame | None]:
+    """(values, samples, per-seed SAC summary) of every registered metric the tables hold.
+
+    Parameters
+    ----------
+    tables : mapping of stage to mapping of task id to mapping of file name to pandas.DataFrame
+        The artefact tables of :data:`RETURN_MATRIX_STAGES` per task, e.g.
+        ``{"metrics": {"cart": {"metrics.parquet": …, "batches.parquet": …}}, "diagnostics": {…}}``;
+        a stage or task may be missing.
+    registry : Registry
+        Which columns are metrics, and of which stage.
+    sac_curves : pandas.DataFrame, optional
+        Tidy SAC curves (:mod:`taskcomplexity.metrics.sac`); normalised with each task's random-policy
+        bounds ``r_min``, ``r_max`` from ``metrics.parquet``.
+
+    Returns
+    -------
+    (values, samples, per_seed)
+        Tidy ``task``, ``metric``, ``value`` tables, and the per-seed SAC summary (None without curves).
+    """
+    values, samples = [], []
+    for stage, (point_file, batch_file) in RETURN_MATRIX_STAGES.items():
+        metrics = registry.of_stage(stage)
+        found = tables.get(stage, {})
+        values.append(tidy_values({t: f[point_file] for t, f in found.items()}, metrics))
+        samples.append(tidy_values({t: f[batch_file] for t, f in found.items()}, [m for m in metrics if m.batched]))
+    per_seed = None
+    if sac_curves is not None and not sac_curves.empty:
+        bounds = {task: (float(f["metrics.parquet"]["r_min"].iloc[0]), float(f["metrics.parquet"]["r_max"].iloc[0]))
+                  for task, f in tables.get("metrics", {}).items()
+                  if {"r_min", "r_max"} <= set(f["metrics.parquet"].columns)}
+        per_seed = seed_summary(sac_curves, rwg_bounds=bounds)
+        sac_values, sac_samples = sac_estimates(per_seed, registry.of_stage("sac"))
+        values.append(sac_values)
+        samples.append(sac_samples)
+    return _concat(values), _concat(samples), per_seed
+
+
+def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:
+    parts = [p for p in parts if not p.empty]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(TIDY_COLUMNS))

@@ -1,0 +1,39 @@
+"""Real stages at smoke size: RWG → metrics → diagnostics → verdict → report, into a temporary directory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from taskcomplexity.metrics import DEFAULT_REGISTRY
+from taskcomplexity.pipeline.cache import Cache
+from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.pipeline.metrics_stage import MetricsSettings
+from taskcomplexity.pipeline.study import study_metrics
+from taskcomplexity.pipeline.verdict_stage import run_verdict_stage
+
+SETTINGS = MetricsSettings(bins=1000, resamples=20)
+DIAGNOSTICS = DiagnosticsSettings(repeats=4, knn_max_samples=2000)
+
+
+@pytest.fixture(scope="module")
+def run_stages():
+    """``run_stages(root, study, requests, *, diagnostics=True, sac_curves=None, registry=...)`` → artefacts.
+
+    Returns a dict with ``cache``, ``results``, ``diagnostics`` (or None) and ``verdict`` (the artefact).
+    """
+
+    def run(root: Path, study, requests, *, diagnostics=True, sac_curves=None, registry=DEFAULT_REGISTRY):
+        cache = Cache(Path(root) / "cache")
+        results = study_metrics(cache, list(requests), SETTINGS, names=list(study.ids)[: len(requests)],
+                                registry=registry)
+        found = None
+        if diagnostics:
+            found = study_diagnostics(cache, {r.task_id: r.rwg for r in results}, SETTINGS, DIAGNOSTICS,
+                                      registry=registry)
+        verdict, _ = run_verdict_stage(cache, study, {r.task_id: r.metrics for r in results}, diagnostics=found,
+                                       sac_curves=sac_curves, alpha=SETTINGS.alpha, registry=registry)
+        return {"cache": cache, "results": results, "diagnostics": found, "verdict": verdict}
+
+    return run

@@ -1,0 +1,87 @@
+"""A study of two gymnasium tasks (no groups, one relation) and a study without relations, through the real
+stages into a report: nothing about the paper's arms is needed."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from taskcomplexity.metrics import DEFAULT_REGISTRY
+from taskcomplexity.pipeline.rwg_stage import RWGRequest
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.report.build import build_report
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.study import study_from_config
+from taskcomplexity.tasks.gym_task import GymTask
+
+PAIR = study_from_config({
+    "name": "pair",
+    "tasks": [{"id": "cart", "env_id": "CartPole-v1", "label": "Cart-pole", "color": "#ff8800"},
+              {"id": "pend", "env_id": "Pendulum-v1", "label": "Pendulum"}],
+    "relations": [{"easier": "cart", "harder": "pend", "kind": "swing_up"}],
+})
+LONE = study_from_config({"name": "lone", "tasks": [{"id": "pend", "env_id": "Pendulum-v1", "label": "Pendulum"}]})
+
+
+def requests(*env_ids):
+    return [RWGRequest(GymTask(e), NetworkSpec(), PriorSpec(), RWGSettings(policies=10, episodes=5), backend="gym")
+            for e in env_ids]
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory, run_stages):
+    root = tmp_path_factory.mktemp("pair")
+    found = run_stages(root, PAIR, requests("CartPole-v1", "Pendulum-v1"))
+    index = build_report(found["results"], study=PAIR, verdict=found["verdict"], diagnostics=found["diagnostics"],
+                         sac_curves=None, out_dir=root / "report", title="Two gym tasks")
+    return index, found
+
+
+def test_the_verdict_judges_the_one_relation_with_every_metric(pair):
+    index, found = pair
+    verdict = pd.read_parquet(found["verdict"].file("verdict.parquet"))
+    computed = [m.name for m in DEFAULT_REGISTRY if m.stage != "sac"]
+    assert verdict["metric"].tolist() == computed
+    assert set(verdict["easier"]) == {"cart"} and set(verdict["harder"]) == {"pend"}
+    # CartPole's returns are positive episode lengths, Pendulum's are negative costs: the mean return orders them
+    row = verdict.set_index("metric").loc["r_mean"]
+    assert row["value_easier"] > 0 > row["value_harder"] and bool(row["agrees"])
+
+
+def test_the_page_uses_the_study_labels_and_says_what_is_missing(pair):
+    index, _ = pair
+    html = index.read_text(encoding="utf-8")
+    assert "Cart-pole &lt; Pendulum" in html or "Cart-pole < Pendulum" in html
+    assert "swing up" in html and "swing_up" not in html
+    table1 = pd.read_csv(index.parent / "tables" / "table1.csv")
+    assert list(table1.columns) == ["Task", "PIC", "POIC"]  # no groups: rows indexed by label
+    assert table1["Task"].tolist() == ["Cart-pole", "Pendulum"]
+    assert "SAC curves were not computed" in html
+    assert "it rates" in html or "no metric contradicts it" in html
+
+
+def test_a_task_colour_from_the_study_reaches_the_figures(pair):
+    from taskcomplexity.report.labels import task_styles
+
+    assert task_styles(PAIR)["cart"].colour == "#ff8800"
+    index, _ = pair
+    assert (index.parent / "figures" / "score_scatter.png").stat().st_size > 1000
+
+
+def test_a_study_without_relations_shows_its_metrics_and_says_there_is_nothing_to_judge(tmp_path, run_stages):
+    found = run_stages(tmp_path, LONE, requests("Pendulum-v1"), diagnostics=False)
+    verdict = pd.read_parquet(found["verdict"].file("verdict.parquet"))
+    summary = pd.read_parquet(found["verdict"].file("summary.parquet"))
+    assert verdict.empty
+    assert summary["metric"].tolist() == [m.name for m in DEFAULT_REGISTRY.of_stage("metrics")]
+    assert (summary["relations"] == 0).all()
+    index = build_report(found["results"], study=LONE, verdict=found["verdict"], diagnostics=None, sac_curves=None,
+                         out_dir=tmp_path / "report", title="One task")
+    text = index.read_text(encoding="utf-8")
+    assert "The study gives no relation to judge" in text
+    assert "1 task, N = 10" in text
+    assert not (index.parent / "tables" / "verdict_matrix.csv").exists()
+    values = pd.read_csv(index.parent / "tables" / "verdict_values.csv")
+    assert set(values["metric"]) == set(summary["metric"]) and set(values["task"]) == {"pend"}
+    table1 = pd.read_csv(index.parent / "tables" / "table1.csv")
+    assert table1["Task"].tolist() == ["Pendulum"]

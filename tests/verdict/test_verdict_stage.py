@@ -1,0 +1,114 @@
+"""The verdict stage: one row per (metric, relation), cached by key, undefined outcomes from the library."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from taskcomplexity.cli import CONF_DIR
+from taskcomplexity.metrics import DEFAULT_REGISTRY
+from taskcomplexity.pipeline.cache import Cache
+from taskcomplexity.pipeline.metrics_stage import MetricsSettings
+from taskcomplexity.pipeline.rwg_stage import RWGRequest
+from taskcomplexity.pipeline.study import study_metrics
+from taskcomplexity.pipeline.verdict_stage import FILES, SAC_FILE, run_verdict_stage
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.study import Relation, load_study_file
+from taskcomplexity.tasks.spec import task_from_id
+
+PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
+TASKS = ("one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense")
+
+
+def curves(metrics, tasks, seeds=(0, 1, 2)) -> pd.DataFrame:
+    """SAC curves rising from the task's worst random policy mean r_min to 90 %, 60 %, 30 % … of the way to its
+    best random return r_max (seed noise 0.5 % of the range): normalised, later tasks are harder."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for rank, task in enumerate(tasks):
+        row = pd.read_parquet(metrics[task].file("metrics.parquet")).iloc[0]
+        low, span = row["r_min"], row["r_max"] - row["r_min"]
+        for seed in seeds:
+            for step in range(0, 2001, 200):
+                level = (0.9 - 0.3 * rank) * (1 - np.exp(-step / 300)) + rng.normal(0, 0.005)
+                rows.append({"task": task, "variant": "sac", "seed": seed, "env_step": step,
+                             "eval/return_mean": low + span * level})
+    return pd.DataFrame(rows)
+
+
+@pytest.fixture(scope="module")
+def stage(tmp_path_factory):
+    cache = Cache(tmp_path_factory.mktemp("verdict") / "cache")
+    requests = [RWGRequest(task_from_id(t), NetworkSpec(), PriorSpec(), RWGSettings(policies=20, episodes=6))
+                for t in TASKS]
+    results = study_metrics(cache, requests, MetricsSettings(bins=500, resamples=10), names=list(TASKS))
+    return cache, {r.task_id: r.metrics for r in results}
+
+
+def test_the_artefact_has_a_row_for_every_metric_and_relation(stage):
+    cache, metrics = stage
+    artefact, hit = run_verdict_stage(cache, PAPER, metrics, sac_curves=curves(metrics, TASKS))
+    assert not hit and all(artefact.file(f).is_file() for f in (*FILES, SAC_FILE))
+    verdict = pd.read_parquet(artefact.file("verdict.parquet"))
+    relations = PAPER.relations_among(TASKS)
+    # no diagnostics given, and SAC ran without HER: the metrics with a value for at least one task
+    judged = [m.name for m in DEFAULT_REGISTRY.of_stage("metrics")] + ["sac_final", "sac_auc"]
+    assert len(relations) == 3 and len(verdict) == len(judged) * len(relations)
+    assert list(dict.fromkeys(verdict["metric"])) == judged
+    assert list(verdict.columns[:8]) == ["metric", "easier", "harder", "kind", "value_easier", "value_harder",
+                                         "pvalue", "outcome"]
+    assert [(r.easier, r.harder) for r in relations] == list(dict.fromkeys(zip(verdict["easier"], verdict["harder"],
+                                                                               strict=True)))
+    # SAC's normalised plateaus fall by 0.3 per task, seed noise 0.005: its final return agrees with every relation
+    final = verdict[verdict["metric"] == "sac_final"]
+    assert (final["outcome"] == "agree").all() and (final["samples_easier"] == 3).all()
+    summary = pd.read_parquet(artefact.file("summary.parquet")).set_index("metric")
+    assert summary.loc["sac_final", "agreements"] == 3
+    assert summary.loc["sac_final", "kendall_tau_dense"] == pytest.approx(1.0)
+    # the values judged are the metrics artefacts' values
+    pic = pd.read_parquet(metrics[TASKS[0]].file("metrics.parquet"))["pic"].iloc[0]
+    first = verdict[(verdict["metric"] == "pic") & (verdict["easier"] == TASKS[0])]
+    assert (first["value_easier"] == pic).all() and len(first) == 2
+
+
+def test_a_second_run_is_a_cache_hit_and_any_input_change_is_a_new_key(stage, caplog):
+    cache, metrics = stage
+    first, _ = run_verdict_stage(cache, PAPER, metrics)
+    with caplog.at_level("INFO"):
+        again, hit = run_verdict_stage(cache, PAPER, metrics)
+    assert hit and again.key == first.key and "cache hit: verdict" in caplog.text
+    fewer = replace(PAPER, relations=PAPER.relations[:1])
+    assert run_verdict_stage(cache, fewer, metrics)[0].key != first.key
+    assert run_verdict_stage(cache, PAPER, metrics, sac_curves=curves(metrics, TASKS))[0].key != first.key
+    assert run_verdict_stage(cache, PAPER, metrics, alpha=0.05)[0].key != first.key
+
+
+def test_a_metric_without_a_value_for_a_task_is_undefined_not_dropped(stage):
+    cache, metrics = stage
+    artefact, _ = run_verdict_stage(cache, PAPER, metrics, sac_curves=curves(metrics, TASKS[:2]))  # no SAC on two_link
+    verdict = pd.read_parquet(artefact.file("verdict.parquet"))
+    sac = verdict[verdict["metric"] == "sac_auc"].set_index("harder")
+    assert sac.loc["two_link-dense", "outcome"].tolist() == ["undefined", "undefined"]
+    assert sac.loc["two_link-dense", "value_harder"].isna().all()
+    assert sac.loc["one_link_1m65-dense", "outcome"] != "undefined"
+    summary = pd.read_parquet(artefact.file("summary.parquet")).set_index("metric")
+    assert summary.loc["sac_auc", "undefined"] == 2 and summary.loc["sac_auc", "relations"] == 3
+
+
+def test_a_study_without_relations_gets_an_empty_verdict_and_a_summary(stage):
+    cache, metrics = stage
+    artefact, _ = run_verdict_stage(cache, replace(PAPER, relations=(), orders={}), metrics)
+    assert pd.read_parquet(artefact.file("verdict.parquet")).empty
+    summary = pd.read_parquet(artefact.file("summary.parquet"))
+    assert summary["metric"].tolist() == [m.name for m in DEFAULT_REGISTRY.of_stage("metrics")]
+
+
+def test_relations_between_tasks_outside_the_results_are_left_out(stage):
+    cache, metrics = stage
+    study = replace(PAPER, relations=(*PAPER.relations, Relation("two_link-dense", "two_link-sparse", "reward")))
+    verdict = pd.read_parquet(run_verdict_stage(cache, study, metrics)[0].file("verdict.parquet"))
+    assert "two_link-sparse" not in set(verdict["harder"])
