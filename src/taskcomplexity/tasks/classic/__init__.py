@@ -3,8 +3,9 @@
 :data:`KERNELS` maps each supported gymnasium id to a :class:`ClassicKernel`: its kernel code in
 :mod:`taskcomplexity.tasks.classic.kernels`, the constructor arguments it supports, and the reset
 draw. A reset reproduces ``env.reset(seed=s)`` exactly: gymnasium seeds ``np_random`` from ``s``
-(:func:`gymnasium.utils.seeding.np_random`) and draws the initial state from it; here the same
-generator makes the same draw, one episode at a time (M × N generators: ~20 µs each).
+(:func:`gymnasium.utils.seeding.np_random`) and draws the initial state from it; here
+:func:`~taskcomplexity.tasks.classic.resets.seed_uniforms` computes that generator's first draws for
+all the episodes at once, and the state is made from them as ``Generator.uniform`` makes it.
 
 Equivalence with gymnasium: ``tests/tasks/test_classic_kernels.py``.
 """
@@ -16,26 +17,36 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from gymnasium.utils.seeding import np_random
 
 from taskcomplexity.tasks.classic import kernels
+from taskcomplexity.tasks.classic.resets import seed_uniforms
+
+RESET_DRAWS = 4
+"""Uniforms drawn per reset (the most any of the envs draws)."""
 
 
-def _cartpole_reset(rng: np.random.Generator) -> np.ndarray:
-    return rng.uniform(low=-0.05, high=0.05, size=(4,))
+def _uniform(low, high, u: np.ndarray) -> np.ndarray:
+    """``Generator.uniform(low, high)`` from its U[0, 1) draws ``u``."""
+    return low + (high - low) * u
 
 
-def _pendulum_reset(rng: np.random.Generator) -> np.ndarray:
+def _cartpole_reset(u: np.ndarray) -> np.ndarray:
+    return _uniform(-0.05, 0.05, u[:, :4])
+
+
+def _pendulum_reset(u: np.ndarray) -> np.ndarray:
     high = np.array([np.pi, 1.0])
-    return rng.uniform(low=-high, high=high)
+    return _uniform(-high, high, u[:, :2])
 
 
-def _mountain_car_reset(rng: np.random.Generator) -> np.ndarray:
-    return np.array([rng.uniform(low=-0.6, high=-0.4), 0.0, 0.0])
+def _mountain_car_reset(u: np.ndarray) -> np.ndarray:
+    state = np.zeros((u.shape[0], 3))
+    state[:, 0] = _uniform(-0.6, -0.4, u[:, 0])
+    return state
 
 
-def _acrobot_reset(rng: np.random.Generator) -> np.ndarray:
-    return rng.uniform(low=-0.1, high=0.1, size=(4,)).astype(np.float32).astype(np.float64)
+def _acrobot_reset(u: np.ndarray) -> np.ndarray:
+    return _uniform(-0.1, 0.1, u[:, :4]).astype(np.float32).astype(np.float64)
 
 
 @dataclass(frozen=True)
@@ -49,14 +60,15 @@ class ClassicKernel:
     state_size : int
         Width of the kernel's state vector.
     reset : callable
-        ``reset(rng) -> ndarray (state_size,)``: the initial state drawn as the env's ``reset`` draws it.
+        ``reset(u) -> ndarray (K, state_size)``: initial states from the first uniforms ``u`` (K, 4) of
+        each episode's generator, drawn as the env's ``reset`` draws them.
     arguments : mapping
         Supported constructor arguments and their defaults, in the order of the kernel's params vector.
     """
 
     code: int
     state_size: int
-    reset: Callable[[np.random.Generator], np.ndarray]
+    reset: Callable[[np.ndarray], np.ndarray]
     arguments: Mapping[str, float] = field(default_factory=dict)
 
     def supports(self, kwargs: Mapping[str, Any]) -> bool:
@@ -81,13 +93,11 @@ class ClassicKernel:
         -------
         ndarray, shape S + (state_size,), float64.
         """
-        seeds = np.asarray(reset_seeds)
-        flat = seeds.reshape(-1)
-        out = np.empty((flat.size, self.state_size))
-        unique, inverse = np.unique(flat, return_inverse=True)
-        drawn = np.stack([self.reset(np_random(int(s))[0]) for s in unique]) if unique.size else out
-        out[:] = drawn[inverse.reshape(-1)]
-        return out.reshape((*seeds.shape, self.state_size))
+        seeds = np.asarray(reset_seeds, dtype=np.int64)
+        if seeds.size and not (seeds.min() >= 0 and seeds.max() < 2**32):
+            raise ValueError(f"reset seeds must be in [0, 2**32), got {seeds.min()} … {seeds.max()}")
+        states = self.reset(seed_uniforms(seeds.reshape(-1), RESET_DRAWS))
+        return states.reshape((*seeds.shape, self.state_size))
 
 
 KERNELS: dict[str, ClassicKernel] = {
