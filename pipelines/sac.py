@@ -17,11 +17,10 @@ import sys
 from typing import Any
 
 import hydra
-from omegaconf import DictConfig, open_dict
+from omegaconf import DictConfig
 
-from taskcomplexity.cli import TASK_GROUPS, cache_from_config, check_overrides, one_line_errors, study_from
+from taskcomplexity.cli import cache_from_config, check_overrides, entry_config, one_line_errors, study_from
 from taskcomplexity.config import task_from_config
-from taskcomplexity.errors import ConfigError
 from taskcomplexity.pipeline.sac_stage import CURVES, run_sac_stage, sac_settings_from_config
 from taskcomplexity.rl import with_budget
 from taskcomplexity.tasks.spec import TaskSpec
@@ -55,36 +54,10 @@ def study_entry_for(cfg: Any, task) -> Any:
     study = study_from(cfg)
     wanted = (type(task).__name__, task.identity())
     for i, entry in enumerate(study.tasks):
-        node = _compose_entry(entry, f"study.tasks[{i}]")
-        with open_dict(node):
-            node.max_steps = cfg.max_steps
-            for key in ("env_id", "kwargs", "max_steps"):
-                if key in entry.selection:
-                    node.task[key] = entry.selection[key]
-        candidate = task_from_config(node)
+        candidate = task_from_config(entry_config(cfg, entry, [], f"study.tasks[{i}]"))
         if (type(candidate).__name__, candidate.identity()) == wanted:
             return entry
     return None
-
-
-def _compose_entry(entry, where: str):
-    from hydra import compose, initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-    from hydra.errors import HydraException
-    from omegaconf.errors import OmegaConfBaseException
-
-    from taskcomplexity.cli import CONF_DIR
-
-    overrides = [f"{g}={entry.selection[g]}" for g in TASK_GROUPS if g in entry.selection]
-    if "env_id" in entry.selection and "task" not in entry.selection:
-        overrides.insert(0, "task=gym")
-    try:
-        if GlobalHydra.instance().is_initialized():
-            return compose("config", overrides=overrides)
-        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-            return compose("config", overrides=overrides)
-    except (HydraException, OmegaConfBaseException) as err:
-        raise ConfigError(f"{where}: {' '.join(str(err).split())}") from err
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")

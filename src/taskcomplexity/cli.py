@@ -289,6 +289,27 @@ def _compose(overrides: list[str], where: str):
         raise ConfigError(f"{where}: {message}") from err
 
 
+def entry_config(cfg: Any, entry, typed: list[str], where: str):
+    """The composed config of one study entry: ``typed`` overrides, then the entry's own choices.
+
+    What the entry does not choose (backend, the reaching arms' max_steps, prior and network) comes
+    from the study's own composed config ``cfg``, so values set there, by overrides or in code, reach
+    every task.
+    """
+    from omegaconf import open_dict
+
+    node = _compose(_entry_overrides(entry, typed, where), where)
+    with open_dict(node):
+        node.backend, node.max_steps = cfg.backend, cfg.max_steps
+        for group in ("prior", "network"):
+            if group not in entry.selection:
+                node[group] = cfg[group]
+        for key in ("env_id", "kwargs", "max_steps"):
+            if key in entry.selection:
+                node.task[key] = entry.selection[key]
+    return node
+
+
 def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
     """(StudyTask, RWGRequest) for every entry of the study, in study order.
 
@@ -299,8 +320,6 @@ def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
     set, override N and M for every entry.
     """
     import dataclasses
-
-    from omegaconf import open_dict
 
     from taskcomplexity.pipeline.rwg_stage import RWGRequest
     from taskcomplexity.rwg import RWGSettings, resolve_backend
@@ -314,22 +333,35 @@ def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
     typed = user_overrides()
     out = []
     for i, entry in enumerate(study.tasks):
-        where = f"study.tasks[{i}]"
-        node = _compose(_entry_overrides(entry, typed, where), where)
-        with open_dict(node):
-            # What the entry does not choose comes from the study's own composed config (so values
-            # set there, by overrides or in code, reach every task).
-            node.backend, node.max_steps = cfg.backend, cfg.max_steps
-            for group in ("prior", "network"):
-                if group not in entry.selection:
-                    node[group] = cfg[group]
-            for key in ("env_id", "kwargs", "max_steps"):
-                if key in entry.selection:
-                    node.task[key] = entry.selection[key]
+        node = entry_config(cfg, entry, typed, f"study.tasks[{i}]")
         task = task_from_config(node)
         network, prior = sampler_from_config(node)
         out.append((entry, RWGRequest(task, network, prior, settings, resolve_backend(task, str(node.backend)))))
     return out
+
+
+def check_study_settings(cfg: Any, study, requests) -> None:
+    """Every stage's settings of a study, checked before any work (one ConfigError naming the key).
+
+    Metrics, diagnostics, SAC (its settings, and a budget for every task it will train on) and the
+    report: a bad value late in the chain must not cost the work before it.
+    """
+    from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings
+
+    metrics_settings_from_config(cfg)
+    build(DiagnosticsSettings, cfg.diagnostics, "diagnostics")
+    title = cfg.report.get("title")
+    if title is not None and not isinstance(title, str):
+        raise ConfigError(f"report.title must be a string or null (the study's own title), got {title!r}")
+    if not cfg.sac.get("enabled", True) or study.kind == "variants":
+        return
+    from taskcomplexity.pipeline.sac_stage import sac_settings_from_config
+    from taskcomplexity.rl.settings import sac_skip_reason, with_budget
+
+    settings = sac_settings_from_config(cfg.sac)
+    for entry, request in zip(study.tasks, requests, strict=True):
+        if sac_skip_reason(request.task) is None:
+            with_budget(settings, entry.sac_steps, task_id=entry.id)
 
 
 def run_name(cfg: Any) -> str:
