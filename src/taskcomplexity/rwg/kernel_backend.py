@@ -21,11 +21,13 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import PolicyBatch, select_policies
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.classic import ClassicKernel, kernel_for
-from taskcomplexity.tasks.classic.kernels import observe_all, step_all
+from taskcomplexity.tasks.classic.kernels import observe_all, step_all, step_serial
 from taskcomplexity.tasks.step_kernel import prepare_kernels
 
 COMPACT_BELOW = 0.75
-"""Drop finished policies from the forward pass once fewer than this fraction of the rows run."""
+"""Repack the batch once fewer than this fraction of its slots run."""
+PARALLEL_FROM = 4096
+"""Batches of at least this many environments are stepped on every core, smaller ones on one."""
 
 
 def task_kernel(task) -> ClassicKernel:
@@ -84,7 +86,8 @@ def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_ini
         for _ in range(task.max_steps):
             outputs = active.act(torch.from_numpy(obs.reshape(len(active), width, -1))).numpy()
             outputs = active.unit_outputs(outputs, box).reshape(len(active) * width, -1)
-            alive = step_all(kernel.code, params, state, outputs, obs, running, returns, steps, task.max_steps)
+            step = step_all if running.size >= PARALLEL_FROM else step_serial
+            alive = step(kernel.code, params, state, outputs, obs, running, returns, steps, task.max_steps)
             if alive == 0:
                 break
             if alive < COMPACT_BELOW * running.size:

@@ -264,9 +264,24 @@ def observe_all(code, state, obs):
         _observe(code, state[i], obs[i])
 
 
+@numba.njit(cache=True, inline="always")
+def _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i):
+    """One step of environment i if it runs; whether it still runs afterwards."""
+    if not running[i]:
+        return 0
+    reward, terminated = _step(code, state[i], outputs[i], params)
+    returns[i] += reward
+    steps[i] += 1
+    if terminated or steps[i] >= max_steps:
+        running[i] = False
+        return 0
+    _observe(code, state[i], obs[i])
+    return 1
+
+
 @numba.njit(cache=True, parallel=True)
 def step_all(code, params, state, outputs, obs, running, returns, steps, max_steps):
-    """One step of every running environment.
+    """One step of every running environment, in parallel over environments.
 
     Parameters
     ----------
@@ -287,14 +302,14 @@ def step_all(code, params, state, outputs, obs, running, returns, steps, max_ste
     """
     alive = 0
     for i in numba.prange(state.shape[0]):
-        if not running[i]:
-            continue
-        reward, terminated = _step(code, state[i], outputs[i], params)
-        returns[i] += reward
-        steps[i] += 1
-        if terminated or steps[i] >= max_steps:
-            running[i] = False
-        else:
-            _observe(code, state[i], obs[i])
-            alive += 1
+        alive += _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i)
+    return alive
+
+
+@numba.njit(cache=True)
+def step_serial(code, params, state, outputs, obs, running, returns, steps, max_steps):
+    """:func:`step_all` on one thread (for small batches, where starting the threads costs more)."""
+    alive = 0
+    for i in range(state.shape[0]):
+        alive += _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i)
     return alive
