@@ -443,16 +443,17 @@ def null_figure(
     Parameters
     ----------
     nulls : mapping of task id to pandas.DataFrame
-        ``null.parquet`` (``pic``, ``poic`` per permutation).
+        ``null.parquet`` (one column per estimator, one row per permutation).
     summaries : mapping of task id to pandas.DataFrame
         ``null_summary.parquet`` (``metric``, ``observed``, ``null_mean``, ``null_sd``).
     styles : mapping of task id to TaskStyle
         Names and colours, in study order.
     """
     tasks = [t for t in styles if t in nulls]
+    metrics = list(summaries[tasks[0]]["metric"])  # the estimators the diagnostics stage ran a null of
     with paper_style():
-        figure, axes = _figure(1, 2, 0.32 * len(tasks) + 0.9, sharey=True)
-        for ax, metric in zip(axes[0], ("pic", "poic"), strict=True):
+        figure, axes = _figure(1, len(metrics), 0.32 * len(tasks) + 0.9, sharey=True)
+        for ax, metric in zip(axes[0], metrics, strict=True):
             for position, task in enumerate(tasks):
                 draws = nulls[task][metric].to_numpy()
                 row = summaries[task].set_index("metric").loc[metric]
@@ -468,7 +469,7 @@ def null_figure(
             ax.grid(axis="x", linewidth=0.3, alpha=0.5)
         axes[0, 0].set_yticks(range(len(tasks)), [styles[t].name for t in tasks])
         axes[0, 0].invert_yaxis()  # the axes share y: invert once, first task on top
-        axes[0, 1].legend(frameon=False, loc="best")
+        axes[0, -1].legend(frameon=False, loc="best")
     return figure
 
 
