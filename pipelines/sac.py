@@ -12,6 +12,13 @@ with one line naming ``sac.total_steps``. An interrupted run resumes from its la
 
 from __future__ import annotations
 
+import os
+
+# Before torch and NumPy load their thread pools: OpenMP threads that spin-wait after a parallel region
+# would steal the cores from numba's kernels (2x slower RWG on 2 cores). The process is this entry
+# point's to configure; the library itself sets nothing at import.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 import logging
 import sys
 from typing import Any

@@ -9,7 +9,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-from taskcomplexity.cli import one_line_errors
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.pipeline.chain import StudyArtefacts, study_artefacts
 from taskcomplexity.report.build import build_report
@@ -30,7 +29,6 @@ def write_report(artefacts: StudyArtefacts, out_dir: Path, title: str, *, regist
                         alpha=artefacts.alpha, registry=registry)
 
 
-@one_line_errors
 def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
     """Compute or reuse every artefact of the study and write its report; return index.html."""
     started = time.time()

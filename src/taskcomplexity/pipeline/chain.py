@@ -14,8 +14,8 @@ import pandas as pd
 
 from taskcomplexity.cli import (
     cache_from_config,
+    check_study_settings,
     metrics_settings_from_config,
-    one_line_errors,
     run_name,
     study_from,
     study_requests,
@@ -83,6 +83,7 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
     """Compute or reuse every artefact of the study of ``cfg`` (each stage logs its cache hits)."""
     study = study_from(cfg)
     entries, requests = zip(*study_requests(cfg, study), strict=True)
+    check_study_settings(cfg, study, requests)  # every stage's settings, before any work
     settings = metrics_settings_from_config(cfg)
     cache = cache_from_config(cfg)
     force = bool(cfg.force)
@@ -104,7 +105,6 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
     return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha)
 
 
-@one_line_errors
 def run_verdict(cfg: Any) -> Artefact:
     """Compute or reuse the study's verdict (and every artefact upstream of it); return its artefact."""
     return study_artefacts(cfg).verdict

@@ -1,0 +1,36 @@
+"""A study checks every stage's settings before any work; the library raises, only entry points exit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from omegaconf import open_dict
+
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.study_run import run_study
+
+
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        ("diagnostics.repeats=1", r"diagnostics\.repeats"),
+        ("report.title=5", r"report\.title must be a string or null \(the study's own title\), got 5"),
+        ("sac.actor_lr=-1", r"sac\.actor_lr must be a finite number > 0, got -1"),
+        ("metrics.bins=1", r"metrics\.bins must be an integer >= 2"),
+    ],
+)
+def test_a_bad_late_stage_setting_is_refused_before_any_artefact_is_written(compose_config, override, message):
+    cfg = compose_config("experiment=smoke", override)
+    with pytest.raises(ConfigError, match=message):  # a ConfigError for a notebook, not SystemExit
+        run_study(cfg)
+    assert not list((Path(cfg.paths.outputs) / "cache").rglob("*.parquet"))  # nothing computed
+
+
+def test_a_study_task_without_a_sac_budget_is_refused_before_any_work(compose_config):
+    cfg = compose_config("experiment=smoke", "sac.total_steps=null")
+    with open_dict(cfg):
+        cfg.study.tasks[2].sac_steps = None
+    with pytest.raises(ConfigError, match=r"no SAC budget for task two_link-dense"):
+        run_study(cfg)
+    assert not list((Path(cfg.paths.outputs) / "cache").rglob("*.parquet"))
