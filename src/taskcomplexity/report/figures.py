@@ -250,10 +250,11 @@ def score_scatter_figure(
         One panel per metric, in order; a legend of the tasks fills the next free panel.
     """
     columns = 4
-    rows = max(1, -(-(len(panels) + 1) // columns))
+    legend_panel = len(panels) % columns != 0  # a free panel holds the legend, else it goes below
+    rows = max(1, -(-len(panels) // columns))
     chosen = metrics[metrics["task"].isin(list(styles))]
     with paper_style():
-        figure, axes = _figure(rows, columns, 1.95 * rows, sharey=True)
+        figure, axes = _figure(rows, columns, 1.95 * rows + (0 if legend_panel else 0.6), sharey=True)
         for ax, (column, axis_label) in zip(axes.flat, panels, strict=False):
             for _, row in chosen.iterrows():
                 style = styles[row["task"]]
@@ -261,7 +262,7 @@ def score_scatter_figure(
                            edgecolors="black", linewidths=0.4, zorder=3)
             r, p = pearson(chosen[column].to_numpy(dtype=float), chosen[y[0]].to_numpy(dtype=float))
             ax.set_title("r = n/a" if not np.isfinite(r) else f"r = {r:.2f}, p = {p:.2g}")
-            ax.set_xlabel(axis_label)
+            ax.set_xlabel(axis_label.replace(" (", "\n(") if len(axis_label) > 22 else axis_label)
             ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=4))
             ax.margins(0.12)
         for ax in axes[:, 0]:
@@ -273,7 +274,10 @@ def score_scatter_figure(
                              markeredgecolor="black", markeredgewidth=0.4, markersize=6, label=style.name)
             for style in styles.values()
         ]
-        list(axes.flat)[len(panels)].legend(handles=handles, loc="center", frameon=False, title="task")
+        if legend_panel:
+            list(axes.flat)[len(panels)].legend(handles=handles, loc="center", frameon=False, title="task")
+        else:
+            figure.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 4), frameon=False)
     return figure
 
 
