@@ -55,5 +55,5 @@ def test_the_option_is_keyed_only_when_set():
     default = RWGRequest(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=4, episodes=3), "kernel")
     common = RWGRequest(task, NetworkSpec(), PriorSpec(),
                         RWGSettings(policies=4, episodes=3, common_initial_states=True), "kernel")
-    assert "common_initial_states" not in default.identity()
+    assert default.identity()["common_initial_states"] is False
     assert common.identity()["common_initial_states"] is True and common.key != default.key

@@ -29,6 +29,7 @@ import pandas as pd
 from tqdm.auto import tqdm
 
 from taskcomplexity import metrics as est
+from taskcomplexity.config import result_identity
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
@@ -112,16 +113,11 @@ class DiagnosticsSettings:
             raise ConfigError(f"diagnostics.seed must be a non-negative integer, got {self.seed!r}")
 
     def identity(self) -> dict:
-        """The settings the cache key hashes."""
-        return {
-            "repeats": self.repeats,
-            "bins_sweep": sorted(self.bins_sweep),
-            "subsample_fractions": sorted(float(f) for f in self.subsample_fractions),
-            "knn_neighbors": self.knn_neighbors,
-            "knn_max_samples": self.knn_max_samples,
-            "knn_episodes_per_policy": self.knn_episodes_per_policy,
-            "seed": self.seed,
-        }
+        """The settings the cache key hashes: every field (each changes the result), sweeps in sorted order."""
+        identity = result_identity(self)
+        identity["bins_sweep"] = sorted(self.bins_sweep)
+        identity["subsample_fractions"] = sorted(float(f) for f in self.subsample_fractions)
+        return identity
 
 
 def _not_int(value: object) -> bool:

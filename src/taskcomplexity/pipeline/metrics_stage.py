@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from taskcomplexity import metrics as est
+from taskcomplexity.config import result_identity, setting
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
@@ -62,7 +63,7 @@ class MetricsSettings:
     temperature_range: tuple[float, float] = (1e-4, 2e4)
     resamples: int = 1000
     batches: int = 5
-    alpha: float = 0.005
+    alpha: float = setting(0.005, result=False)
     seed: int = 0
 
     def validate(self) -> None:
@@ -83,14 +84,8 @@ class MetricsSettings:
             raise ConfigError(f"metrics.seed must be a non-negative integer, got {self.seed}")
 
     def identity(self) -> dict:
-        return {
-            "bins": self.bins,
-            "temperature_range": list(self.temperature_range),
-            "resamples": self.resamples,
-            "batches": self.batches,
-            "seed": self.seed,
-        }
-
+        """The fields declared to change the result (all but ``alpha``, which only the verdict reads)."""
+        return result_identity(self)
 
     def estimation(self) -> Estimation:
         """The estimator settings every registered metric reads."""

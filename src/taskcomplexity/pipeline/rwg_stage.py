@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from filelock import FileLock
 
+from taskcomplexity.config import result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.pipeline.cache import Artefact, Cache, remove_orphans
 from taskcomplexity.pipeline.keys import canonical, stage_key
@@ -44,25 +45,21 @@ class RWGRequest:
     backend: str = "batched"
 
     def identity(self) -> dict:
-        """The config subset the key hashes: sharding and chunking do not change the returns.
+        """What the key hashes: the task, the sampler, the backend and the RWG settings declared to change
+        the returns (``config.setting``: sharding and chunking do not).
 
-        The contact handling counts only where it can change them (the obstacle task on the batched
-        backend), so the other tasks' keys do not depend on it.
+        The contact handling is dropped where it cannot change the returns (every task but the obstacle
+        task on the batched backend), so those tasks' keys do not depend on it.
         """
         identity = {
             "task": self.task.identity(),
-            # fields added for issue 14 enter only when set, so the paper's keys do not change
             "network": canonical(self.network.identity()),
             "prior": canonical(self.prior.identity()),
-            "policies": self.settings.policies,
-            "episodes": self.settings.episodes,
-            "seed": self.settings.seed,
             "backend": self.backend,
+            **result_identity(self.settings),
         }
-        if self.models_contacts:
-            identity["contacts"] = self.settings.contacts
-        if self.settings.common_initial_states:  # issue 14: keyed only when set (default keys unchanged)
-            identity["common_initial_states"] = True
+        if not self.models_contacts:
+            identity.pop("contacts")
         return identity
 
     @property

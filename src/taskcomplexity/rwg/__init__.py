@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec, sample_policies, select_policy
 from taskcomplexity.rwg.gym_backend import ENVIRONMENTS_IN_FLIGHT, GymRollout
@@ -69,12 +70,12 @@ class RWGSettings:
     policies: int = 1000
     episodes: int = 100
     seed: int = 0
-    chunk_policies: int = 0
-    chunk_memory_mb: int = 512
-    shard: int = 0
-    shards: int = 1
+    chunk_policies: int = setting(0, result=False)  # how the work is split never changes the returns
+    chunk_memory_mb: int = setting(512, result=False)
+    shard: int = setting(0, result=False)
+    shards: int = setting(1, result=False)
     contacts: str = "pybullet"
-    common_initial_states: bool = False  # issue 14
+    common_initial_states: bool = False
 
     def validate(self) -> None:
         if self.policies < 2:
