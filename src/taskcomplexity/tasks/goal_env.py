@@ -44,8 +44,8 @@ from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.mechanics import xp_of
-from taskcomplexity.tasks.registration import MAX_EPISODE_STEPS, gym_id
-from taskcomplexity.tasks.spec import STUDY_TASKS, TaskSpec, make_task
+from taskcomplexity.tasks.registration import MAX_EPISODE_STEPS
+from taskcomplexity.tasks.spec import STUDY_TASKS, TaskSpec, gym_id, make_task
 
 GOAL_SIZE = 2
 TWO_PI = 2.0 * math.pi

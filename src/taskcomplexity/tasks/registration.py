@@ -4,16 +4,9 @@ from __future__ import annotations
 
 import gymnasium
 
-from taskcomplexity.tasks.spec import STUDY_TASKS
+from taskcomplexity.tasks.spec import ENTRY_POINT, STUDY_TASKS, gym_id
 
-ENTRY_POINT = "taskcomplexity.tasks.pybullet_env:ReachingEnv"
 MAX_EPISODE_STEPS = 50
-
-def gym_id(arm: str, reward: str) -> str:
-    """``('two_link', 'sparse')`` → ``'taskcomplexity/TwoLink-Sparse-v0'`` (any arm name: CamelCase of its parts)."""
-    camel = "".join(part[:1].upper() + part[1:] for part in arm.split("_"))
-    return f"taskcomplexity/{camel}-{reward.capitalize()}-v0"
-
 
 GYM_IDS: dict[tuple[str, str], str] = {(arm, reward): gym_id(arm, reward) for arm, reward in STUDY_TASKS}
 

@@ -13,6 +13,16 @@ from dataclasses import dataclass, replace
 
 from taskcomplexity.errors import ConfigError
 
+ENTRY_POINT = "taskcomplexity.tasks.pybullet_env:ReachingEnv"
+"""Where the reaching tasks' reference env lives (loaded by gymnasium only when an env is made)."""
+
+
+def gym_id(arm: str, reward: str) -> str:
+    """``('two_link', 'sparse')`` → ``'taskcomplexity/TwoLink-Sparse-v0'`` (any arm name: CamelCase of its parts)."""
+    camel = "".join(part[:1].upper() + part[1:] for part in arm.split("_"))
+    return f"taskcomplexity/{camel}-{reward.capitalize()}-v0"
+
+
 # A link box overhangs its joint by this much behind the pivot, and is this thick (square section).
 LINK_OVERHANG = 0.05
 LINK_WIDTH = 0.05
@@ -234,8 +244,6 @@ class TaskSpec:
     @property
     def env_id(self) -> str:
         """The gymnasium id of the preset this task is made from, e.g. ``taskcomplexity/TwoLink-Sparse-v0``."""
-        from taskcomplexity.tasks.registration import gym_id
-
         return gym_id(self.arm.name, self.reward.kind)
 
     @property
@@ -259,12 +267,12 @@ class TaskSpec:
         return ("batched", "pybullet", "gym")
 
     def make_env(self, **kwargs):
-        """The PyBullet reference env with a ``max_steps`` time limit."""
+        """The PyBullet reference env with a ``max_steps`` time limit (loaded from its entry point, lazily)."""
         import gymnasium
+        from gymnasium.envs.registration import load_env_creator
 
-        from taskcomplexity.tasks.pybullet_env import ReachingEnv
-
-        return gymnasium.wrappers.TimeLimit(ReachingEnv(task=self, **kwargs), max_episode_steps=self.max_steps)
+        env = load_env_creator(ENTRY_POINT)(task=self, **kwargs)
+        return gymnasium.wrappers.TimeLimit(env, max_episode_steps=self.max_steps)
 
     def identity(self) -> dict:
         """Every field of the arm, the reward and the episode length (the cache keys of the arms)."""
