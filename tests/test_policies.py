@@ -110,10 +110,10 @@ def test_the_new_fields_at_their_defaults_keep_the_papers_cache_keys():
     assert PriorSpec(kind="uniform").identity() == {"kind": "uniform", "variance": 1.0, "low": -1.0, "high": 1.0}
     request = RWGRequest(make_task("two_link", "dense"), NetworkSpec(hidden=(64, 64)), PriorSpec(),
                          RWGSettings(policies=20, episodes=6, seed=1))
-    before = {  # the payload as it was hashed before the fields existed
+    before = {  # the network and prior as they were hashed before their new fields existed
         "task": request.task.identity(), "network": {"hidden": [64, 64], "bias": False},
         "prior": {"kind": "normal", "variance": 1.0, "low": -1.0, "high": 1.0},
-        "policies": 20, "episodes": 6, "seed": 1, "backend": "batched",
+        "policies": 20, "episodes": 6, "seed": 1, "backend": "batched", "common_initial_states": False,
     }
     assert request.key == stage_key(STAGE, VERSION, before)
     family = RWGRequest(request.task, FAMILY[2], PriorSpec(kind="xavier_normal", gain=5 / 3), request.settings)
