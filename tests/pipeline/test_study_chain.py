@@ -6,16 +6,37 @@ import re
 from pathlib import Path
 
 import pandas as pd
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from omegaconf import open_dict
 
 from taskcomplexity.cli import study_from
 from taskcomplexity.metrics import DEFAULT_REGISTRY
 from taskcomplexity.pipeline.chain import run_verdict
 from taskcomplexity.study_run import run_study
 
+CONF_DIR = str(Path(__file__).resolve().parents[2] / "conf")
 
-def test_smoke_study_writes_a_self_contained_report_and_says_where(compose_config, capsys):
-    cfg = compose_config("experiment=smoke", "sac.enabled=false")
-    index = run_study(cfg)
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    """One smoke study (SAC off) computed for the whole module: (cfg, index.html, what it printed)."""
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        cfg = compose("config", overrides=["experiment=smoke", "sac.enabled=false"])
+    GlobalHydra.instance().clear()
+    with open_dict(cfg):
+        cfg.paths.outputs = str(tmp_path_factory.mktemp("smoke") / "outputs")
+    with pytest.MonkeyPatch.context() as patch:
+        printed = []
+        patch.setattr("builtins.print", lambda *a, **k: printed.append(" ".join(map(str, a))))
+        index = run_study(cfg)
+    return cfg, index, "\n".join(printed)
+
+
+def test_smoke_study_writes_a_self_contained_report_and_says_where(smoke):
+    cfg, index, printed = smoke
     assert index == Path(cfg.paths.outputs) / "reports" / "seven_tasks-smoke" / "index.html"
     html = index.read_text()
     assert "verdict" in html.lower()
@@ -27,13 +48,11 @@ def test_smoke_study_writes_a_self_contained_report_and_says_where(compose_confi
     assert figures and tables
     assert all(p.stat().st_size > 0 for p in figures + tables)
     assert (index.parent / "report.md").stat().st_size > 0
-    assert capsys.readouterr().out.strip().splitlines()[-1] == f"Report: {index.resolve()}"
+    assert printed.strip().splitlines()[-1] == f"Report: {index.resolve()}"
 
 
-def test_a_second_run_only_hits_the_cache(compose_config, caplog):
-    cfg = compose_config("experiment=smoke", "sac.enabled=false")
-    run_study(cfg)
-    caplog.clear()
+def test_a_second_run_only_hits_the_cache(smoke, caplog):
+    cfg, _, _ = smoke
     with caplog.at_level("INFO"):
         run_study(cfg)
     assert "computed:" not in caplog.text
@@ -41,8 +60,8 @@ def test_a_second_run_only_hits_the_cache(compose_config, caplog):
     assert "cache hit: verdict" in caplog.text and "verdict cache hit" in caplog.text
 
 
-def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(compose_config):
-    cfg = compose_config("experiment=smoke", "sac.enabled=false")
+def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(smoke):
+    cfg, index, _ = smoke
     artefact = run_verdict(cfg)
     verdict = pd.read_parquet(artefact.file("verdict.parquet"))
     study = study_from(cfg)
@@ -50,14 +69,13 @@ def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(comp
     assert len(verdict) == len(judged) * len(study.relations) == 80
     assert set(zip(verdict["metric"], verdict["easier"], verdict["harder"], strict=True)) == {
         (m, r.easier, r.harder) for m in judged for r in study.relations}
-    index = run_study(cfg)  # the report reads the same artefact: its tidy verdict is the artefact's
+    # the report read the same artefact: its tidy verdict is the artefact's
     tidy = pd.read_csv(index.parent / "tables" / "verdict_tidy.csv")
     assert tidy["outcome"].tolist() == verdict["outcome"].tolist()
 
 
-def test_one_writer_per_table(compose_config):
-    cfg = compose_config("experiment=smoke", "sac.enabled=false")
-    index = run_study(cfg)
+def test_one_writer_per_table(smoke):
+    cfg, index, _ = smoke
     outputs = Path(cfg.paths.outputs)
     assert not (outputs / "tables").exists()  # no second copy of Table 1 or the Welch matrices
     assert sorted(p.name for p in outputs.rglob("table1*")) == ["table1.csv", "table1.md", "table1.tex"]

@@ -87,23 +87,36 @@ def test_obstacle_contacts_are_ill_conditioned_in_pybullet_itself():
     assert changed >= 1
 
 
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
-def test_rwg_returns_agree_across_backends(arm, reward):
-    """50 policies × 20 episodes: equal returns, except episodes whose rounding (0.01 rad) or
-    threshold (0.05 m) decision is straddled by float noise (counted, < 0.5 %), and obstacle
-    episodes that touched the block (finished on PyBullet after a hand-over; counted)."""
+def _check_backends_agree(arm, reward, policies, episodes, allowed):
+    """Equal returns on both backends, except episodes whose rounding (0.01 rad) or threshold (0.05 m)
+    decision is straddled by float noise (at most ``allowed`` of them), and obstacle episodes that
+    touched the block (finished on PyBullet after a hand-over; counted)."""
     task = make_task(arm, reward)
-    settings = RWGSettings(policies=50, episodes=20, seed=5)
+    settings = RWGSettings(policies=policies, episodes=episodes, seed=5)
     network, prior = NetworkSpec(), PriorSpec()
     fast = run_rwg(task, network, prior, settings, "batched")
     slow = run_rwg(task, network, prior, settings, "pybullet")
     different = np.abs(fast.returns - slow.returns) > 1e-6
     if task.arm.obstacle is None:
         assert fast.handoffs == 0
-        assert different.mean() < 0.005, f"{different.sum()} of {different.size} episodes differ"
+        assert different.sum() <= allowed, f"{different.sum()} of {different.size} episodes differ"
     else:
         # Without a contact, episodes agree exactly; the ill-conditioned contact episodes are counted.
+        assert fast.handoffs > 0
         assert different.sum() <= fast.handoffs
+
+
+@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+def test_rwg_returns_agree_across_backends(arm, reward):
+    """16 policies × 8 episodes: at most 2 of the 128 episodes straddle a rounding decision."""
+    _check_backends_agree(arm, reward, 16, 8, allowed=2)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+def test_rwg_returns_agree_across_backends_at_1000_episodes(arm, reward):
+    """50 policies × 20 episodes: fewer than 0.5 % of the episodes straddle a rounding decision."""
+    _check_backends_agree(arm, reward, 50, 20, allowed=4)
 
 
 @pytest.mark.parametrize(
