@@ -41,7 +41,7 @@ bench: $(STAMP) ## benchmarks: figures and ratios measured side by side
 	$(PY) bench/run.py
 
 cache-list: $(STAMP) ## list cached artefacts with their sizes
-	$(PY) -m taskcomplexity.pipeline.cache list
+	$(PY) -m taskcomplexity.stages.cache list
 
 clean-cache: ## delete outputs/cache
 	rm -rf outputs/cache

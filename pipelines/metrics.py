@@ -36,7 +36,7 @@ from taskcomplexity.cli import (
 from taskcomplexity.config import task_from_config
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
-from taskcomplexity.pipeline.study import metrics_frame, study_metrics
+from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
 
 log = logging.getLogger("metrics")
 

@@ -20,7 +20,7 @@ import hydra
 from omegaconf import DictConfig
 
 from taskcomplexity.cli import cache_from_config, check_overrides, one_line_errors, rwg_request_from_config
-from taskcomplexity.pipeline.rwg_stage import run_rwg_stage
+from taskcomplexity.stages.rwg_stage import run_rwg_stage
 
 log = logging.getLogger("rwg")
 

@@ -28,8 +28,8 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import cache_from_config, check_overrides, entry_config, one_line_errors, study_from
 from taskcomplexity.config import task_from_config
-from taskcomplexity.pipeline.sac_stage import CURVES, run_sac_stage, sac_settings_from_config
 from taskcomplexity.rl import with_budget
+from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
 log = logging.getLogger("sac")

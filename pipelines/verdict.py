@@ -26,7 +26,7 @@ import pandas as pd
 from omegaconf import DictConfig
 
 from taskcomplexity.cli import check_overrides, one_line_errors
-from taskcomplexity.pipeline.chain import run_verdict
+from taskcomplexity.stages.chain import run_verdict
 
 log = logging.getLogger("verdict")
 

@@ -12,10 +12,10 @@ from gymnasium import spaces
 
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.pipeline.keys import stage_key
-from taskcomplexity.pipeline.rwg_stage import STAGE, VERSION, RWGRequest
 from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.rwg_stage import STAGE, VERSION, RWGRequest
 from taskcomplexity.tasks.base import decode_actions
 from taskcomplexity.tasks.spec import make_task
 

@@ -80,7 +80,7 @@ def check_output_paths(argv: list[str]) -> None:
     """Refuse, in one line, output and cache paths that cannot be written, however they are given
     (``paths.outputs=…``, ``paths.cache=…`` or ``TASKCOMPLEXITY_OUTPUTS``), before Hydra creates its run
     directory there."""
-    from taskcomplexity.pipeline.cache import ensure_writable
+    from taskcomplexity.stages.cache import ensure_writable
 
     given = dict(arg.lstrip("+~").split("=", 1) for arg in argv[1:] if "=" in arg and not arg.startswith("-"))
     outputs = given.get("paths.outputs") or os.environ.get("TASKCOMPLEXITY_OUTPUTS") or "outputs"
@@ -193,8 +193,8 @@ def sampler_from_config(cfg: Any):
 
 def rwg_request_from_config(cfg: Any, task=None):
     """The :class:`RWGRequest` of a composed config (for ``task`` if given); ``backend=auto`` resolved."""
-    from taskcomplexity.pipeline.rwg_stage import RWGRequest
     from taskcomplexity.rwg import AUTO, BACKENDS, RWGSettings, resolve_backend
+    from taskcomplexity.stages.rwg_stage import RWGRequest
 
     if str(cfg.backend) not in (AUTO, *BACKENDS):
         raise ConfigError(f"backend must be one of {[AUTO, *BACKENDS]}, got {cfg.backend!r}")
@@ -224,7 +224,7 @@ def refuse_unread_overrides(task, typed: list[str]) -> None:
 
 
 def metrics_settings_from_config(cfg: Any):
-    from taskcomplexity.pipeline.metrics_stage import MetricsSettings
+    from taskcomplexity.stages.metrics_stage import MetricsSettings
 
     node = {k: v for k, v in dict(cfg.metrics).items() if k != "scope"}
     return build(MetricsSettings, node, "metrics")
@@ -321,8 +321,8 @@ def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
     """
     import dataclasses
 
-    from taskcomplexity.pipeline.rwg_stage import RWGRequest
     from taskcomplexity.rwg import RWGSettings, resolve_backend
+    from taskcomplexity.stages.rwg_stage import RWGRequest
 
     study = study or study_from(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
@@ -346,7 +346,7 @@ def check_study_settings(cfg: Any, study, requests) -> None:
     Metrics, diagnostics, SAC (its settings, and a budget for every task it will train on) and the
     report: a bad value late in the chain must not cost the work before it.
     """
-    from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings
+    from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings
 
     metrics_settings_from_config(cfg)
     build(DiagnosticsSettings, cfg.diagnostics, "diagnostics")
@@ -355,8 +355,8 @@ def check_study_settings(cfg: Any, study, requests) -> None:
         raise ConfigError(f"report.title must be a string or null (the study's own title), got {title!r}")
     if not cfg.sac.get("enabled", True) or study.kind == "variants":
         return
-    from taskcomplexity.pipeline.sac_stage import sac_settings_from_config
     from taskcomplexity.rl.settings import sac_skip_reason, with_budget
+    from taskcomplexity.stages.sac_stage import sac_settings_from_config
 
     settings = sac_settings_from_config(cfg.sac)
     for entry, request in zip(study.tasks, requests, strict=True):
@@ -371,7 +371,7 @@ def run_name(cfg: Any) -> str:
 
 
 def cache_from_config(cfg: Any):
-    from taskcomplexity.pipeline.cache import Cache, ensure_writable
+    from taskcomplexity.stages.cache import Cache, ensure_writable
 
     ensure_writable(Path(cfg.paths.outputs))
     ensure_writable(Path(cfg.paths.cache), key="paths.cache")

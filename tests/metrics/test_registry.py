@@ -9,14 +9,14 @@ import pytest
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY, Metric, Registry, bootstrap_indices
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.metrics_stage import MetricsSettings, metrics_key
-from taskcomplexity.pipeline.rwg_stage import RWGRequest, load_returns
-from taskcomplexity.pipeline.study import study_metrics
-from taskcomplexity.pipeline.verdict_stage import run_verdict_stage
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.metrics_stage import MetricsSettings, metrics_key
+from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns
+from taskcomplexity.stages.task_artefacts import study_metrics
+from taskcomplexity.stages.verdict_stage import run_verdict_stage
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 

@@ -7,11 +7,11 @@ from pathlib import Path
 import pytest
 
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings, study_diagnostics
-from taskcomplexity.pipeline.metrics_stage import MetricsSettings
-from taskcomplexity.pipeline.study import study_metrics
-from taskcomplexity.pipeline.verdict_stage import run_verdict_stage
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.stages.metrics_stage import MetricsSettings
+from taskcomplexity.stages.task_artefacts import study_metrics
+from taskcomplexity.stages.verdict_stage import run_verdict_stage
 
 SETTINGS = MetricsSettings(bins=1000, resamples=20)
 DIAGNOSTICS = DiagnosticsSettings(repeats=4, knn_max_samples=2000)

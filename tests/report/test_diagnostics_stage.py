@@ -14,18 +14,18 @@ import pytest
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics import DEFAULT_REGISTRY, pic_miller_madow
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.diagnostics_stage import (
+from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.diagnostics_stage import (
     FILES,
     DiagnosticsSettings,
     compute_diagnostics,
     diagnostics_key,
     run_diagnostics_stage,
 )
-from taskcomplexity.pipeline.metrics_stage import MetricsSettings
-from taskcomplexity.pipeline.rwg_stage import RWGRequest, run_rwg_stage
-from taskcomplexity.policies import NetworkSpec, PriorSpec
-from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.metrics_stage import MetricsSettings
+from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
 from taskcomplexity.tasks.spec import make_task
 
 METRICS = MetricsSettings(bins=1000, resamples=5)

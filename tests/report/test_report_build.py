@@ -17,11 +17,11 @@ import pytest
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.pipeline.rwg_stage import RWGRequest, load_returns
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.report.format import mean_sd
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 

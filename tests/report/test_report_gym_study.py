@@ -7,10 +7,10 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.pipeline.rwg_stage import RWGRequest
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.rwg_stage import RWGRequest
 from taskcomplexity.study import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 

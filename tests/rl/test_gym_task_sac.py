@@ -17,11 +17,11 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.sac_stage import CURVES, SKIPPED_ATTR, sac_identity, study_sac_curves
 from taskcomplexity.rl import CURVE_COLUMNS, SACSettings, train_sac
 from taskcomplexity.rl.checkpoint import load_checkpoint
 from taskcomplexity.rl.factories import make_actor_critic, make_env, make_loss, success_info_key
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.sac_stage import CURVES, SKIPPED_ATTR, sac_identity, study_sac_curves
 from taskcomplexity.study import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
@@ -111,7 +111,7 @@ def _study(*entries) -> object:
 
 def test_the_study_skips_discrete_tasks_with_one_log_line_and_says_so_in_the_curves(tmp_path, caplog):
     study = _study({"id": "cart", "task": "cartpole"})
-    with caplog.at_level(logging.INFO, logger="taskcomplexity.pipeline.sac_stage"):
+    with caplog.at_level(logging.INFO, logger="taskcomplexity.stages.sac_stage"):
         curves = study_sac_curves(Cache(tmp_path), [(study.task("cart"), GymTask("CartPole-v1"))], {})
     assert curves.empty and tuple(curves.columns) == CURVE_COLUMNS
     assert curves.attrs[SKIPPED_ATTR] == {"cart": "discrete actions"}

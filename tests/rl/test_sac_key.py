@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 
-from taskcomplexity.pipeline.keys import stage_key
-from taskcomplexity.pipeline.sac_stage import STAGE, VERSION, sac_identity
 from taskcomplexity.rl.settings import SACSettings
+from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.sac_stage import STAGE, VERSION, sac_identity
 from taskcomplexity.tasks.spec import make_task
 
 CHANGED = {  # a valid different value of every field

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from taskcomplexity.pipeline.rwg_stage import RWGRequest
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, initial_states, run_rwg
 from taskcomplexity.rwg.kernel_backend import reset_seeds
+from taskcomplexity.stages.rwg_stage import RWGRequest
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
 

@@ -10,13 +10,13 @@ import pytest
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.metrics_stage import MetricsSettings
-from taskcomplexity.pipeline.rwg_stage import RWGRequest
-from taskcomplexity.pipeline.study import study_metrics
-from taskcomplexity.pipeline.verdict_stage import FILES, SAC_FILE, run_verdict_stage
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.metrics_stage import MetricsSettings
+from taskcomplexity.stages.rwg_stage import RWGRequest
+from taskcomplexity.stages.task_artefacts import study_metrics
+from taskcomplexity.stages.verdict_stage import FILES, SAC_FILE, run_verdict_stage
 from taskcomplexity.study import Relation, load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 

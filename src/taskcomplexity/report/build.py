@@ -55,7 +55,7 @@ def build_report(
     ----------
     results : sequence of per-task results
         Each with ``task_id`` (the study id), ``request``, and the ``rwg`` and ``metrics`` artefacts
-        (:class:`~taskcomplexity.pipeline.study.TaskMetrics`).
+        (:class:`~taskcomplexity.stages.task_artefacts.TaskMetrics`).
     study : Study
         Names, groups, colours and order of the tasks; the relations and orders the verdict judged.
     verdict : artefact

@@ -276,7 +276,7 @@ class TaskSpec:
 
     def identity(self) -> dict:
         """Every field of the arm, the reward and the episode length (the cache keys of the arms)."""
-        from taskcomplexity.pipeline.keys import canonical
+        from taskcomplexity.stages.keys import canonical
 
         return canonical(self)
 

@@ -5,7 +5,7 @@ Modules
 judge    every (metric, relation) outcome, per-metric counts, Kendall's τ and reference correlations
 gather   tidy values and samples of every registered metric from the stages' tables
 
-The stage itself (cache key, files) is :mod:`taskcomplexity.pipeline.verdict_stage`.
+The stage itself (cache key, files) is :mod:`taskcomplexity.stages.verdict_stage`.
 """
 
 from taskcomplexity.verdict.gather import gather

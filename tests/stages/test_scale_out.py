@@ -15,11 +15,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.pipeline.cache import Cache, file_digest
-from taskcomplexity.pipeline.metrics_stage import MetricsSettings, run_metrics_stage
-from taskcomplexity.pipeline.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.cache import Cache, file_digest
+from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage
+from taskcomplexity.stages.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.tasks.spec import make_task
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -142,7 +142,7 @@ def test_a_damaged_manifest_is_detected_and_recomputed(tmp_path):
 
 
 def test_a_new_stage_format_version_invalidates_old_keys(monkeypatch):
-    import taskcomplexity.pipeline.rwg_stage as stage
+    import taskcomplexity.stages.rwg_stage as stage
 
     old = request().key
     monkeypatch.setattr(stage, "VERSION", stage.VERSION + 1)
@@ -224,7 +224,7 @@ def test_an_output_path_that_is_a_file_is_named(tmp_path):
 
 def test_cache_listing_shows_artefacts_with_sizes(tmp_path):
     run_rwg_stage(Cache(tmp_path / "cache"), request())
-    result = run("-m", "taskcomplexity.pipeline.cache", "list", str(tmp_path / "cache"), cwd=tmp_path)
+    result = run("-m", "taskcomplexity.stages.cache", "list", str(tmp_path / "cache"), cwd=tmp_path)
     assert result.returncode == 0
     assert "rwg" in result.stdout and "KB" in result.stdout and "1 artefacts" in result.stdout
 

@@ -31,8 +31,8 @@ import pandas as pd
 
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.pipeline.cache import Artefact, Cache
-from taskcomplexity.pipeline.keys import stage_key
+from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.study import Study
 from taskcomplexity.verdict import gather, judge, pairwise_welch, summarise
 from taskcomplexity.verdict.gather import RETURN_MATRIX_STAGES

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from taskcomplexity.pipeline import keys
+from taskcomplexity.stages import keys
 
 
 def test_the_fingerprint_ignores_docstrings_comments_and_layout_but_not_code(tmp_path):
@@ -17,12 +17,12 @@ def test_the_fingerprint_ignores_docstrings_comments_and_layout_but_not_code(tmp
 
 
 def test_a_stage_fingerprint_covers_what_it_imports_at_any_depth_and_nothing_else():
-    rwg = keys._closure("taskcomplexity.pipeline.rwg_stage")
+    rwg = keys._closure("taskcomplexity.stages.rwg_stage")
     # the physics kernel is imported by a function of the RWG runner, three imports away
     assert {"taskcomplexity.tasks.dynamics", "taskcomplexity.tasks.step_kernel", "taskcomplexity.policies",
             "taskcomplexity.seeding", "taskcomplexity.rwg.gym_backend"} <= rwg
     assert not any(m.startswith(("taskcomplexity.report", "taskcomplexity.rl")) for m in rwg)
-    sac = keys._closure("taskcomplexity.pipeline.sac_stage")
+    sac = keys._closure("taskcomplexity.stages.sac_stage")
     assert "taskcomplexity.rl.train" in sac and "taskcomplexity.tasks.batched" not in sac
 
 
@@ -43,8 +43,8 @@ def _one_at_a_time(settings, changed: dict, not_a_result: set, key) -> None:
 
 
 def test_metrics_and_diagnostics_keys_follow_their_declarations():
-    from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings
-    from taskcomplexity.pipeline.metrics_stage import MetricsSettings
+    from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings
+    from taskcomplexity.stages.metrics_stage import MetricsSettings
 
     _one_at_a_time(MetricsSettings(), {"bins": 500, "temperature_range": (1e-3, 1e3), "resamples": 10, "batches": 4,
                                        "alpha": 0.05, "seed": 3},
@@ -58,9 +58,9 @@ def test_metrics_and_diagnostics_keys_follow_their_declarations():
 
 
 def test_the_rwg_key_follows_the_settings_declaration():
-    from taskcomplexity.pipeline.rwg_stage import RWGRequest
     from taskcomplexity.policies import NetworkSpec, PriorSpec
     from taskcomplexity.rwg import RWGSettings
+    from taskcomplexity.stages.rwg_stage import RWGRequest
     from taskcomplexity.tasks.spec import make_task
 
     def key_of(task):

@@ -8,9 +8,9 @@ from dataclasses import dataclass
 import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.pipeline.cache import Artefact, Cache
-from taskcomplexity.pipeline.metrics_stage import MetricsSettings, run_metrics_stage
-from taskcomplexity.pipeline.rwg_stage import RWGRequest, run_rwg_stage
+from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage
+from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
 
 log = logging.getLogger(__name__)
 

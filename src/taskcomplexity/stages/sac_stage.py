@@ -20,8 +20,8 @@ from typing import Any
 import pandas as pd
 
 from taskcomplexity.config import build, result_identity
-from taskcomplexity.pipeline.cache import Artefact, Cache
-from taskcomplexity.pipeline.keys import stage_key
+from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.keys import stage_key
 
 log = logging.getLogger(__name__)
 

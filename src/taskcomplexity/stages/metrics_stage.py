@@ -28,9 +28,9 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample
-from taskcomplexity.pipeline.cache import Artefact, Cache
-from taskcomplexity.pipeline.keys import stage_key
-from taskcomplexity.pipeline.rwg_stage import load_returns
+from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.rwg_stage import load_returns
 
 log = logging.getLogger(__name__)
 

@@ -21,10 +21,10 @@ from filelock import FileLock
 
 from taskcomplexity.config import result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
-from taskcomplexity.pipeline.cache import Artefact, Cache, remove_orphans
-from taskcomplexity.pipeline.keys import canonical, stage_key
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
+from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
+from taskcomplexity.stages.keys import canonical, stage_key
 from taskcomplexity.tasks.base import Task
 
 log = logging.getLogger(__name__)

@@ -22,10 +22,10 @@ from taskcomplexity.cli import (
 )
 from taskcomplexity.config import build
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.pipeline.cache import Artefact
-from taskcomplexity.pipeline.diagnostics_stage import DiagnosticsSettings, study_diagnostics
-from taskcomplexity.pipeline.study import TaskMetrics, study_metrics
-from taskcomplexity.pipeline.verdict_stage import run_verdict_stage
+from taskcomplexity.stages.cache import Artefact
+from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.stages.task_artefacts import TaskMetrics, study_metrics
+from taskcomplexity.stages.verdict_stage import run_verdict_stage
 from taskcomplexity.study import Study
 
 log = logging.getLogger("study")
@@ -39,7 +39,7 @@ def _sac_curves(cfg: Any, cache, results):
     if not cfg.sac.get("enabled", True):
         return None
     try:
-        from taskcomplexity.pipeline.sac_stage import study_sac_curves
+        from taskcomplexity.stages.sac_stage import study_sac_curves
     except ImportError:  # pragma: no cover - the SAC stage is optional at import time
         log.warning("SAC stage unavailable; the report will say so")
         return None

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 INJECTED = textwrap.dedent("""
     import runpy, sys
     import numpy as np
-    import taskcomplexity.pipeline.rwg_stage as stage
+    import taskcomplexity.stages.rwg_stage as stage
 
     def broken(chunk):
         return np.ones(3) + np.ones(4)

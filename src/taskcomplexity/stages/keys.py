@@ -38,7 +38,7 @@ def canonical(value: Any) -> Any:
 def stage_key(stage: str, version: int, payload: dict[str, Any]) -> str:
     """16 hex digits identifying ``payload`` for ``stage`` at format ``version``, computed by today's code.
 
-    The stage's code is the module ``taskcomplexity.pipeline.<stage>_stage`` and what it imports.
+    The stage's code is the module ``taskcomplexity.stages.<stage>_stage`` and what it imports.
     """
     code = code_fingerprint(f"{__package__}.{stage}_stage")
     text = json.dumps({"stage": stage, "version": version, "code": code, "payload": canonical(payload)},

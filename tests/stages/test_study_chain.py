@@ -13,7 +13,7 @@ from omegaconf import open_dict
 
 from taskcomplexity.cli import study_from
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.pipeline.chain import run_verdict
+from taskcomplexity.stages.chain import run_verdict
 from taskcomplexity.study_run import run_study
 
 CONF_DIR = str(Path(__file__).resolve().parents[2] / "conf")

@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.rwg_stage import RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.tasks.gym_task import GymTask
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -11,10 +11,10 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.cli import rwg_request_from_config
-from taskcomplexity.pipeline.cache import Cache
-from taskcomplexity.pipeline.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters
 from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.tasks.spec import make_task
 
 ROOT = Path(__file__).resolve().parents[2]

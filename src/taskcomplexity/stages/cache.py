@@ -8,7 +8,7 @@ config), lists at least one file, and every file has the size and SHA-256 the ma
 damaged, foreign or unverifiable artefact is reported, removed and recomputed — never served.
 Temporary directories of processes that died are removed by the next writer of the same key.
 
-``python -m taskcomplexity.pipeline.cache list [root]`` lists what is cached, with sizes.
+``python -m taskcomplexity.stages.cache list [root]`` lists what is cached, with sizes.
 """
 
 from __future__ import annotations
@@ -299,7 +299,7 @@ def _human(n: float) -> str:
 def main(argv: list[str] | None = None) -> int:
     import argparse
 
-    parser = argparse.ArgumentParser(prog="python -m taskcomplexity.pipeline.cache")
+    parser = argparse.ArgumentParser(prog="python -m taskcomplexity.stages.cache")
     parser.add_argument("command", choices=["list"])
     default_root = os.path.join(os.environ.get("TASKCOMPLEXITY_OUTPUTS", "outputs"), "cache")
     parser.add_argument("root", nargs="?", default=default_root)
