@@ -6,7 +6,7 @@
     python pipelines/sac.py experiment=smoke reward=sparse sac.her=true
 
 The budget is ``sac.total_steps`` when set; otherwise the ``sac_steps`` of the selected study's entry
-for this task (``study=paper`` by default: the reference budgets of sac.md). A task with neither fails
+for this task (``study=seven_tasks`` by default: the reference budgets of sac.md). A task with neither fails
 with one line naming ``sac.total_steps``. An interrupted run resumes from its last checkpoint.
 """
 

@@ -1,9 +1,10 @@
 """The whole chain for a study: RWG → metrics (+ diagnostics) → SAC → verdict → report.
 
-    python pipelines/study.py experiment=quick     # what `make run` does
-    python pipelines/study.py experiment=paper     # the published protocol (`make paper`)
-    python pipelines/study.py experiment=smoke     # seconds
-    python pipelines/study.py study=ablation       # the appendix ablation (prior/network variants)
+    python pipelines/study.py experiment=published                   # `make run`: the published scale, no SAC
+    python pipelines/study.py experiment=published sac.enabled=true  # `make paper`: + SAC (hours)
+    python pipelines/study.py experiment=quick                       # `make quick`: minutes
+    python pipelines/study.py experiment=smoke                       # seconds
+    python pipelines/study.py study=ablation                         # the appendix ablation (variants)
 
 Every stage is cached by config hash, so a rerun only computes what is missing; the last line
 printed says where the report is.

@@ -16,6 +16,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from omegaconf import OmegaConf
+from omegaconf.errors import InterpolationKeyError
+
 from taskcomplexity.config import build, task_from_config
 from taskcomplexity.errors import ConfigError, TaskComplexityError
 
@@ -111,7 +114,6 @@ def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
     from hydra.core.global_hydra import GlobalHydra
     from hydra.core.override_parser.overrides_parser import OverridesParser
     from hydra.errors import HydraException
-    from omegaconf import OmegaConf
     from omegaconf.errors import OmegaConfBaseException
 
     lines = [a for a in argv[1:] if "=" in a and not a.startswith("-")]
@@ -152,6 +154,16 @@ def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
     return None
 
 
+def missing_interpolation(err: InterpolationKeyError) -> str:
+    """One line for a ``${key}`` the composed config does not hold (the key that asked, what it wanted)."""
+    wanted = str(err.msg).split("'")[1] if "'" in str(err.msg) else str(err.msg)
+    line = f"{err.full_key} = ${{{wanted}}}, but the config has no {wanted}"
+    if wanted.startswith("study.published."):
+        line += (" (experiment=published runs at the scale of the study's published table: give the study a "
+                 "`published: {policies, episodes, bins}` block, or set rwg.policies, rwg.episodes and metrics.bins)")
+    return line
+
+
 def one_line_errors(fn):
     """Entry points only: the project's input errors become one line and exit status 2.
 
@@ -170,6 +182,10 @@ def one_line_errors(fn):
             if os.environ.get("HYDRA_FULL_ERROR") == "1":
                 raise
             fail(str(err))
+        except InterpolationKeyError as err:  # a ${…} of the composed config names a key it does not have
+            if os.environ.get("HYDRA_FULL_ERROR") == "1":
+                raise
+            fail(missing_interpolation(err))
         except KeyboardInterrupt:
             print("interrupted; rerun the same command to resume", file=sys.stderr, flush=True)
             raise SystemExit(EXIT_INTERRUPTED) from None
@@ -362,6 +378,16 @@ def check_study_settings(cfg: Any, study, requests) -> None:
     for entry, request in zip(study.tasks, requests, strict=True):
         if sac_skip_reason(request.task) is None:
             with_budget(settings, entry.sac_steps, task_id=entry.id)
+
+
+def sac_command() -> str:
+    """The command that trains the SAC curves a run without SAC lacks: its own overrides + sac.enabled=true.
+
+    ``make paper`` is that command for ``make run`` (``experiment=published``).
+    """
+    kept = [o for o in user_overrides() if o.split("=", 1)[0].lstrip("+~") not in ("sac.enabled", "force")]
+    command = " ".join(["python pipelines/study.py", *kept, "sac.enabled=true"])
+    return f"make paper ({command})" if kept == ["experiment=published"] else command
 
 
 def run_name(cfg: Any) -> str:

@@ -74,6 +74,29 @@ class StudyTask:
 
 
 @dataclass(frozen=True)
+class PublishedScale:
+    """N, M and B of a published table: PIC's histogram estimator depends on all three.
+
+    Attributes
+    ----------
+    policies, episodes : int
+        N policies × M episodes per task.
+    bins : int
+        B, PIC's equal-width bins.
+    source : str
+        Where the table was published (e.g. "Table 1 of the paper").
+    """
+
+    policies: int
+    episodes: int
+    bins: int
+    source: str = "the published table"
+
+    def differs(self, policies: int, episodes: int, bins: int) -> bool:
+        return (policies, episodes, bins) != (self.policies, self.episodes, self.bins)
+
+
+@dataclass(frozen=True)
 class Study:
     """A study: tasks, known relations, total orders and reference scores.
 
@@ -94,6 +117,9 @@ class Study:
         their return distributions rather than judged by relations.
     policies, episodes : int or None
         N and M for every entry (None: ``rwg.policies`` / ``rwg.episodes``).
+    published : PublishedScale or None
+        The scale of the study's published table, if it has one: ``experiment=published`` runs at it,
+        and a report at another scale says that its PIC is not comparable with that table.
     """
 
     name: str
@@ -104,6 +130,7 @@ class Study:
     kind: str = "tasks"
     policies: int | None = None
     episodes: int | None = None
+    published: PublishedScale | None = None
 
     @property
     def ids(self) -> tuple[str, ...]:
@@ -133,7 +160,7 @@ def study_from_config(node: Any) -> Study:
     node = _plain(node)
     if not isinstance(node, Mapping):
         raise ConfigError(f"study must be a mapping (name, tasks, relations, …), got {node!r}")
-    allowed = {"name", "tasks", "relations", "orders", "reference", "kind", "policies", "episodes"}
+    allowed = {"name", "tasks", "relations", "orders", "reference", "kind", "policies", "episodes", "published"}
     unknown = sorted(set(node) - allowed)
     if unknown:
         raise ConfigError(f"study.{unknown[0]} is not a known key (allowed: {', '.join(sorted(allowed))})")
@@ -172,11 +199,28 @@ def study_from_config(node: Any) -> Study:
             raise ConfigError(f"study.{key} must be an integer >= 2 or null, got {value!r}")
         counts[key] = value
     return Study(name=name, tasks=tasks, relations=relations, orders=orders, reference=reference, kind=kind,
-                 **counts)
+                 published=_published(node.get("published")), **counts)
+
+
+def _published(node: Any) -> PublishedScale | None:
+    if node is None:
+        return None
+    fields = ("policies", "episodes", "bins")
+    if not isinstance(node, Mapping) or set(node) - {*fields, "source"} or set(fields) - set(node):
+        raise ConfigError(f"study.published must be a mapping with policies, episodes, bins (and optionally "
+                          f"source), got {node!r}")
+    for key in fields:
+        value = node[key]
+        if isinstance(value, bool) or not isinstance(value, int) or value < 2:
+            raise ConfigError(f"study.published.{key} must be an integer >= 2, got {value!r}")
+    source = node.get("source", PublishedScale.source)
+    if not isinstance(source, str):
+        raise ConfigError(f"study.published.source must be a string, got {source!r}")
+    return PublishedScale(policies=node["policies"], episodes=node["episodes"], bins=node["bins"], source=source)
 
 
 def load_study_file(path) -> Study:
-    """A study YAML file (e.g. ``conf/study/paper.yaml``) as a :class:`Study`."""
+    """A study YAML file (e.g. ``conf/study/seven_tasks.yaml``) as a :class:`Study`."""
     from omegaconf import OmegaConf
 
     return study_from_config(OmegaConf.load(path))

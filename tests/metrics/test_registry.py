@@ -20,7 +20,7 @@ from taskcomplexity.stages.verdict_stage import run_verdict_stage
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 
-PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
+SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 TASKS = ("two_link-dense", "two_link-sparse", "one_link_1m0-dense")
 SETTINGS = MetricsSettings(bins=500, resamples=12)
 
@@ -42,8 +42,8 @@ def toy_study(tmp_path_factory):
     requests = [RWGRequest(task_from_id(t), NetworkSpec(), PriorSpec(), RWGSettings(policies=20, episodes=6))
                 for t in TASKS]
     results = study_metrics(cache, requests, SETTINGS, names=list(TASKS), registry=registry)
-    verdict, _ = run_verdict_stage(cache, PAPER, {r.task_id: r.metrics for r in results}, registry=registry)
-    index = build_report(results, study=PAPER, verdict=verdict, diagnostics=None, sac_curves=None,
+    verdict, _ = run_verdict_stage(cache, SEVEN_TASKS, {r.task_id: r.metrics for r in results}, registry=registry)
+    index = build_report(results, study=SEVEN_TASKS, verdict=verdict, diagnostics=None, sac_curves=None,
                          out_dir=root / "report", title="Toy", registry=registry)
     return cache, results, verdict, index
 
@@ -64,7 +64,7 @@ def test_a_toy_metric_reaches_the_metrics_artefact_with_its_bootstrap_and_batche
 def test_a_toy_metric_is_judged_on_every_relation(toy_study):
     _, _, verdict, _ = toy_study
     table = pd.read_parquet(verdict.file("verdict.parquet"))
-    relations = PAPER.relations_among(TASKS)
+    relations = SEVEN_TASKS.relations_among(TASKS)
     toy = table[table["metric"] == "best_mean"]
     assert len(toy) == len(relations) == 2
     assert (toy["samples_easier"] == 5).all()  # tested on its own batch estimates

@@ -11,8 +11,8 @@ from taskcomplexity.metrics import DEFAULT_REGISTRY, Metric
 from taskcomplexity.study import Relation, load_study_file
 from taskcomplexity.verdict import by_relation, judge, pairwise_welch, summarise
 
-PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
-RELATIONS, TASKS, TOTAL_ORDERS = PAPER.relations, PAPER.ids, PAPER.orders
+SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
+RELATIONS, TASKS, TOTAL_ORDERS = SEVEN_TASKS.relations, SEVEN_TASKS.ids, SEVEN_TASKS.orders
 HARDER = Metric("steps_needed", "steps needed", "steps", "steps", higher_is_easier=False, family="baseline",
                 stage="metrics", compute=lambda s: 0.0)
 REGISTRY = DEFAULT_REGISTRY.with_metrics(HARDER)
@@ -50,7 +50,7 @@ def test_the_paper_study_holds_the_relations_of_environments_md():
 
 
 def test_the_study_keeps_only_relations_whose_tasks_are_present():
-    present = PAPER.relations_among(["two_link-dense", "two_link-sparse", "one_link_1m0-dense"])
+    present = SEVEN_TASKS.relations_among(["two_link-dense", "two_link-sparse", "one_link_1m0-dense"])
     assert present == (
         Relation("one_link_1m0-dense", "two_link-dense", "degrees_of_freedom"),
         Relation("two_link-dense", "two_link-sparse", "reward"),
@@ -131,7 +131,7 @@ def test_mixed_outcomes_on_a_synthetic_metric():
     # The metric agrees on link length (5 > 3), contradicts on reward (dense 5 < sparse 5.5).
     centres = {"one_link_1m0-dense": 5.0, "one_link_1m65-dense": 3.0, "one_link_1m0-sparse": 5.5}
     values, samples = measures("poic", centres, spread=0.01)
-    table = judge(values, samples, PAPER.relations_among(centres), registry=REGISTRY)
+    table = judge(values, samples, SEVEN_TASKS.relations_among(centres), registry=REGISTRY)
     assert dict(zip(table["kind"], table["outcome"], strict=True)) == {"link_length": "agree", "reward": "contradict"}
     assert table["difference"].tolist() == [2.0, -0.5]
 

@@ -25,8 +25,8 @@ from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 
-PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
-RELATIONS, TASKS = PAPER.relations, PAPER.ids
+SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
+RELATIONS, TASKS = SEVEN_TASKS.relations, SEVEN_TASKS.ids
 
 FIGURES = ("rwg_trios", "bootstrap", "score_scatter", "sac_curves", "diagnostics_bins", "diagnostics_null",
            "ablation_1_link_l_1_0_m_dense")
@@ -57,7 +57,7 @@ def study(tmp_path_factory, run_stages):
     root = tmp_path_factory.mktemp("study")
     requests = [RWGRequest(task_from_id(t), NetworkSpec(), PriorSpec(), RWGSettings(policies=20, episodes=8, seed=0))
                 for t in TASKS]
-    return root, run_stages(root, PAPER, requests, sac_curves=synthetic_curves(TASKS))
+    return root, run_stages(root, SEVEN_TASKS, requests, sac_curves=synthetic_curves(TASKS))
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +65,7 @@ def report(study):
     root, found = study
     returns = load_returns(found["results"][0].rwg)
     ablation = {"1-link, L = 1.0 m, dense": {"normal prior": returns, "halved returns": returns / 2}}
-    return build_report(found["results"], study=PAPER, verdict=found["verdict"], diagnostics=found["diagnostics"],
+    return build_report(found["results"], study=SEVEN_TASKS, verdict=found["verdict"], diagnostics=found["diagnostics"],
                         sac_curves=synthetic_curves(TASKS), out_dir=root / "report", title="Smoke study",
                         ablation=ablation)
 
@@ -207,8 +207,8 @@ def test_the_markdown_report_links_existing_figures(report):
 def test_without_sac_curves_or_diagnostics_the_page_says_so(study, run_stages, tmp_path):
     _, found = study
     requests = [r.request for r in found["results"][:2]]
-    two = run_stages(tmp_path, PAPER, requests, diagnostics=False)
-    index = build_report(two["results"], study=PAPER, verdict=two["verdict"], diagnostics=None, sac_curves=None,
+    two = run_stages(tmp_path, SEVEN_TASKS, requests, diagnostics=False)
+    index = build_report(two["results"], study=SEVEN_TASKS, verdict=two["verdict"], diagnostics=None, sac_curves=None,
                          out_dir=tmp_path / "report", title="Two tasks")
     text = " ".join(parse(index).text)
     assert "SAC curves were not computed" in text

@@ -13,7 +13,7 @@ from taskcomplexity.report import figures as fig
 from taskcomplexity.report.labels import task_styles
 from taskcomplexity.study import load_study_file, study_from_config
 
-PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
+SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 
 
 def test_episode_dots_sit_at_their_policys_rank_not_its_sampling_index():
@@ -70,7 +70,7 @@ def test_the_ablation_overlays_returns_and_policy_tables_of_different_sizes():
 
 
 def test_the_sac_curves_get_one_panel_per_study_group_and_the_study_colours():
-    styles = task_styles(PAPER)
+    styles = task_styles(SEVEN_TASKS)
     rows = [{"task": t, "variant": "sac", "seed": seed, "env_step": step, "eval/return_mean": float(step + seed)}
             for t in ("two_link-dense", "two_link-sparse") for seed in (0, 1) for step in (0, 1000, 2000)]
     figure = fig.sac_curves_figure(pd.DataFrame(rows), styles)

@@ -8,12 +8,12 @@ from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.report.labels import kind_label, task_styles
 from taskcomplexity.study import load_study_file, study_from_config
 
-PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
+SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 
 
 def test_the_paper_tasks_keep_their_labels_colours_and_group_markers():
-    styles = task_styles(PAPER)
-    assert list(styles) == list(PAPER.ids)  # study order
+    styles = task_styles(SEVEN_TASKS)
+    assert list(styles) == list(SEVEN_TASKS.ids)  # study order
     assert styles["one_link_1m0-dense"].name == "1-link, L = 1.0 m, dense"  # label shared with the sparse twin
     assert styles["two_link_obstacle-dense"].name == "2-link + obstacle"  # a unique label stays as it is
     assert styles["one_link_1m0-dense"].colour == "#1f5aa6" and styles["two_link-sparse"].colour == "#f1948a"
@@ -34,10 +34,10 @@ def test_a_task_keeps_its_colour_whichever_tasks_are_shown():
 
 
 def test_an_id_the_study_lacks_is_named_by_itself_and_gets_a_spare_colour():
-    styles = task_styles(PAPER, ["two_link-dense", "three_link-dense"])
+    styles = task_styles(SEVEN_TASKS, ["two_link-dense", "three_link-dense"])
     assert list(styles) == ["two_link-dense", "three_link-dense"]
     assert styles["three_link-dense"].name == "three_link-dense"
-    assert styles["three_link-dense"].colour not in {s.colour for s in task_styles(PAPER).values()}
+    assert styles["three_link-dense"].colour not in {s.colour for s in task_styles(SEVEN_TASKS).values()}
 
 
 def test_relation_kinds_are_shown_as_the_study_writes_them():

@@ -21,7 +21,7 @@ from taskcomplexity.rl import CURVE_COLUMNS, SACSettings, train_sac
 from taskcomplexity.rl.checkpoint import load_checkpoint
 from taskcomplexity.rl.factories import make_actor_critic, make_env, make_loss, success_info_key
 from taskcomplexity.stages.cache import Cache
-from taskcomplexity.stages.sac_stage import CURVES, SKIPPED_ATTR, sac_identity, study_sac_curves
+from taskcomplexity.stages.sac_stage import CURVES, MISSING_ATTR, SKIPPED_ATTR, sac_identity, study_sac_curves
 from taskcomplexity.study import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
@@ -142,6 +142,23 @@ def test_each_study_task_trains_for_its_own_budget_and_solved_return_scores_it(t
     assert pd.read_parquet(key_dir / CURVES)["env_step"].max() == 200
     settings = build(SACSettings, {**node, "total_steps": 200}, "sac")
     assert sac_identity(PENDULUM, settings, solved_return=-1.0e6)["settings"]["total_steps"] == 200
+
+
+def test_cached_only_shows_the_curves_the_cache_holds_and_never_trains(tmp_path):
+    study = _study({"id": "pend", "task": "pendulum", "sac_steps": 200})
+    node = {"seeds": [0], "warmup_steps": 100, "eval_every": 100, "eval_episodes": 1, "hidden_sizes": [16, 16],
+            "checkpoint_every": 100}
+    tasks = [(study.task("pend"), PENDULUM)]
+    empty = study_sac_curves(Cache(tmp_path), tasks, node, cached_only=True)
+    assert empty.empty and empty.attrs[MISSING_ATTR] == ["pend"]
+    assert not (tmp_path / "sac").exists()  # nothing trained, nothing written
+    trained = study_sac_curves(Cache(tmp_path), tasks, node)
+    shown = study_sac_curves(Cache(tmp_path), tasks, node, cached_only=True)
+    pd.testing.assert_frame_equal(shown, trained)
+    assert shown.attrs[MISSING_ATTR] == []
+    # other settings are another curve: not shown
+    other = study_sac_curves(Cache(tmp_path), tasks, {**node, "seeds": [1]}, cached_only=True)
+    assert other.empty and other.attrs[MISSING_ATTR] == ["pend"]
 
 
 class _Flag(gymnasium.Env):

@@ -39,7 +39,7 @@ def test_every_sac_option_composes_into_valid_settings_with_a_budget_for_every_s
 
 
 def test_the_paper_study_holds_the_reference_budgets_and_the_sac_options_none(compose_config):
-    study = study_from_config(compose_config("study=paper").study)
+    study = study_from_config(compose_config("study=seven_tasks").study)
     assert {entry.id: entry.sac_steps for entry in study.tasks} == SPEC_BUDGETS
     for option in SAC_OPTIONS:
         assert "budgets" not in compose_config(f"sac={option}").sac, option
@@ -60,7 +60,7 @@ def test_a_task_without_a_budget_is_refused_naming_sac_total_steps():
 
 
 def test_default_and_paper_options_are_the_published_protocol(compose_config):
-    for option in ("default", "paper"):
+    for option in ("default", "published"):
         settings = build(SACSettings, compose_config(f"sac={option}").sac, "sac")
         assert settings.total_steps is None
         assert settings.seeds == (0, 1, 2, 3, 4)

@@ -51,6 +51,15 @@ def test_smoke_study_writes_a_self_contained_report_and_says_where(smoke):
     assert printed.strip().splitlines()[-1] == f"Report: {index.resolve()}"
 
 
+def test_a_report_off_the_published_scale_says_so_and_says_how_to_get_sac_curves(smoke):
+    _, index, _ = smoke
+    report = (index.parent / "report.md").read_text()
+    assert ("These numbers are at N = 10, M = 4, B = 1,000, not at the scale of Table 1 of the paper (N = 10,000, "
+            "M = 500, B = 100,000)") in report
+    assert "sac.enabled=true`" in report and "SAC was not trained in this run" in report
+    assert 'class="banner"' in index.read_text()
+
+
 def test_a_second_run_only_hits_the_cache(smoke, caplog):
     cfg, _, _ = smoke
     with caplog.at_level("INFO"):

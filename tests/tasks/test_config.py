@@ -134,6 +134,10 @@ def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compos
          r"study\.reference=acrobot is not a task of the study"),
         ({"name": "s", "tasks": [{"task": "cartpole"}], "orders": {"all": ["cartpole", "x"]}},
          r"study\.orders\.all=x is not a task of the study"),
+        ({"name": "s", "tasks": [{"task": "cartpole"}], "published": {"policies": 100, "episodes": 10}},
+         r"study\.published must be a mapping with policies, episodes, bins"),
+        ({"name": "s", "tasks": [{"task": "cartpole"}], "published": {"policies": 100, "episodes": 1, "bins": 10}},
+         r"study\.published\.episodes must be an integer >= 2, got 1"),
     ],
 )
 def test_bad_studies_are_refused_in_one_line_naming_the_key(study, message):
@@ -153,3 +157,28 @@ def test_a_study_entry_that_chooses_its_own_arm_refuses_the_same_override_on_the
         "arm.links.0.mass=7", "arm=two_link", "reward=dense"]
     with pytest.raises(ConfigError, match=r"arm=one_link_1m0 conflicts with study\.tasks\[0\] \(two_link-dense\)"):
         _entry_overrides(entry, ["arm=one_link_1m0"], "study.tasks[0]")
+
+
+def test_experiment_published_runs_at_the_scale_the_study_declares(compose_config):
+    from taskcomplexity.cli import study_from
+
+    cfg = compose_config("experiment=published")
+    published = study_from(cfg).published
+    assert (cfg.rwg.policies, cfg.rwg.episodes, cfg.metrics.bins) == (published.policies, published.episodes,
+                                                                      published.bins) == (10_000, 500, 100_000)
+    assert cfg.sac.enabled is False and list(cfg.sac.seeds) == [0, 1, 2, 3, 4]  # SAC from the cache only
+    # a study's own published scale moves the experiment with it
+    cfg = compose_config("experiment=published", "study.published.policies=2000")
+    assert cfg.rwg.policies == 2000
+
+
+def test_experiment_published_without_a_published_scale_is_one_line(compose_config, capsys):
+    from taskcomplexity.cli import one_line_errors
+
+    cfg = compose_config("experiment=published", "study=ablation")
+    with pytest.raises(SystemExit) as stop:
+        one_line_errors(lambda c: c.rwg.policies)(cfg)
+    assert stop.value.code == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("error: rwg.policies = ${study.published.policies}, but the config has no "
+                           "study.published.policies (experiment=published runs at the scale")

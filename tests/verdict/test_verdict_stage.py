@@ -20,7 +20,7 @@ from taskcomplexity.stages.verdict_stage import FILES, SAC_FILE, run_verdict_sta
 from taskcomplexity.study import Relation, load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 
-PAPER = load_study_file(CONF_DIR / "study" / "paper.yaml")
+SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 TASKS = ("one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense")
 
 
@@ -51,10 +51,10 @@ def stage(tmp_path_factory):
 
 def test_the_artefact_has_a_row_for_every_metric_and_relation(stage):
     cache, metrics = stage
-    artefact, hit = run_verdict_stage(cache, PAPER, metrics, sac_curves=curves(metrics, TASKS))
+    artefact, hit = run_verdict_stage(cache, SEVEN_TASKS, metrics, sac_curves=curves(metrics, TASKS))
     assert not hit and all(artefact.file(f).is_file() for f in (*FILES, SAC_FILE))
     verdict = pd.read_parquet(artefact.file("verdict.parquet"))
-    relations = PAPER.relations_among(TASKS)
+    relations = SEVEN_TASKS.relations_among(TASKS)
     # no diagnostics given, and SAC ran without HER: the metrics with a value for at least one task
     judged = [m.name for m in DEFAULT_REGISTRY.of_stage("metrics")] + ["sac_final", "sac_auc"]
     assert len(relations) == 3 and len(verdict) == len(judged) * len(relations)
@@ -77,19 +77,19 @@ def test_the_artefact_has_a_row_for_every_metric_and_relation(stage):
 
 def test_a_second_run_is_a_cache_hit_and_any_input_change_is_a_new_key(stage, caplog):
     cache, metrics = stage
-    first, _ = run_verdict_stage(cache, PAPER, metrics)
+    first, _ = run_verdict_stage(cache, SEVEN_TASKS, metrics)
     with caplog.at_level("INFO"):
-        again, hit = run_verdict_stage(cache, PAPER, metrics)
+        again, hit = run_verdict_stage(cache, SEVEN_TASKS, metrics)
     assert hit and again.key == first.key and "cache hit: verdict" in caplog.text
-    fewer = replace(PAPER, relations=PAPER.relations[:1])
+    fewer = replace(SEVEN_TASKS, relations=SEVEN_TASKS.relations[:1])
     assert run_verdict_stage(cache, fewer, metrics)[0].key != first.key
-    assert run_verdict_stage(cache, PAPER, metrics, sac_curves=curves(metrics, TASKS))[0].key != first.key
-    assert run_verdict_stage(cache, PAPER, metrics, alpha=0.05)[0].key != first.key
+    assert run_verdict_stage(cache, SEVEN_TASKS, metrics, sac_curves=curves(metrics, TASKS))[0].key != first.key
+    assert run_verdict_stage(cache, SEVEN_TASKS, metrics, alpha=0.05)[0].key != first.key
 
 
 def test_a_metric_without_a_value_for_a_task_is_undefined_not_dropped(stage):
     cache, metrics = stage
-    artefact, _ = run_verdict_stage(cache, PAPER, metrics, sac_curves=curves(metrics, TASKS[:2]))  # no SAC on two_link
+    artefact, _ = run_verdict_stage(cache, SEVEN_TASKS, metrics, sac_curves=curves(metrics, TASKS[:2]))  # no SAC on two_link
     verdict = pd.read_parquet(artefact.file("verdict.parquet"))
     sac = verdict[verdict["metric"] == "sac_auc"].set_index("harder")
     assert sac.loc["two_link-dense", "outcome"].tolist() == ["undefined", "undefined"]
@@ -101,7 +101,7 @@ def test_a_metric_without_a_value_for_a_task_is_undefined_not_dropped(stage):
 
 def test_a_study_without_relations_gets_an_empty_verdict_and_a_summary(stage):
     cache, metrics = stage
-    artefact, _ = run_verdict_stage(cache, replace(PAPER, relations=(), orders={}), metrics)
+    artefact, _ = run_verdict_stage(cache, replace(SEVEN_TASKS, relations=(), orders={}), metrics)
     assert pd.read_parquet(artefact.file("verdict.parquet")).empty
     summary = pd.read_parquet(artefact.file("summary.parquet"))
     assert summary["metric"].tolist() == [m.name for m in DEFAULT_REGISTRY.of_stage("metrics")]
@@ -109,6 +109,6 @@ def test_a_study_without_relations_gets_an_empty_verdict_and_a_summary(stage):
 
 def test_relations_between_tasks_outside_the_results_are_left_out(stage):
     cache, metrics = stage
-    study = replace(PAPER, relations=(*PAPER.relations, Relation("two_link-dense", "two_link-sparse", "reward")))
+    study = replace(SEVEN_TASKS, relations=(*SEVEN_TASKS.relations, Relation("two_link-dense", "two_link-sparse", "reward")))
     verdict = pd.read_parquet(run_verdict_stage(cache, study, metrics)[0].file("verdict.parquet"))
     assert "two_link-sparse" not in set(verdict["harder"])

@@ -36,6 +36,23 @@ from taskcomplexity.report.writer import Writer
 from taskcomplexity.study import Study
 
 
+def scale_banner(data) -> str | None:
+    """A warning when the metrics are not at the scale of the study's published table (None when they are,
+    or when the study has none)."""
+    published = data.study.published
+    if published is None or data.study.kind == "variants":
+        return None
+    bins = int(data.results[data.tasks[0]].metrics.manifest.get("config", {}).get("bins", 0))
+    scales = {(int(p), int(e)) for p, e in zip(data.metrics["policies"], data.metrics["episodes"], strict=True)}
+    if all(not published.differs(n, m, bins) for n, m in scales):
+        return None
+    here = "; ".join(f"N = {n:,}, M = {m:,}" for n, m in sorted(scales)) + f", B = {bins:,}"
+    return (f"These numbers are at {here}, not at the scale of {published.source} (N = {published.policies:,}, "
+            f"M = {published.episodes:,}, B = {published.bins:,}). PIC's histogram estimator depends on N, M and B, "
+            f"so its values here are not comparable with that table; experiment=published (make run) computes "
+            "them at that scale.")
+
+
 def build_report(
     results: Sequence[Any],
     *,
@@ -104,6 +121,6 @@ def build_report(
     subtitle = (f"{count}, N = {n} random policies × M = {m} episodes each; "
                 f"generated {dt.datetime.now().strftime('%Y-%m-%d %H:%M')}")
     document = Document(title, subtitle, tuple(headline(data, alpha=alpha)), boxed,
-                        methods(data, sac_curves, alpha=alpha), tuple(page_sections))
+                        methods(data, sac_curves, alpha=alpha), tuple(page_sections), banner=scale_banner(data))
     (writer.out_dir / "report.md").write_text(render_markdown(document), encoding="utf-8")
     return write_html(document, writer.out_dir / "index.html")

@@ -16,8 +16,10 @@ def _block(b) -> list[str]:
 
 def render_markdown(document: Document) -> str:
     """The whole document as Markdown."""
-    lines = [f"# {document.title}", "", f"*{document.subtitle}*", "", "## The verdict", "",
-             " ".join(document.headline), ""]
+    lines = [f"# {document.title}", "", f"*{document.subtitle}*", ""]
+    if document.banner:
+        lines += [f"> **Note.** {document.banner}", ""]
+    lines += ["## The verdict", "", " ".join(document.headline), ""]
     for b in document.headline_blocks:
         lines += _block(b)
     lines += ["## Methods", ""] + [f"- **{k}**: {v}" for k, v in document.methods] + [""]

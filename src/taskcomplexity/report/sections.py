@@ -129,13 +129,23 @@ def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
 def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None) -> Section:
     """The empirical order: SAC learning curves and their summary (or why there are none)."""
     title = "Empirical difficulty: SAC"
+    attrs = sac_curves.attrs if sac_curves is not None else {}
+    command, missing = attrs.get("sac_command"), attrs.get("sac_missing") or []
+    how = (f"SAC was not trained in this run (sac.enabled=false). Compute the "
+           f"curves with `{command}`; this report's command then shows them from the cache. ")
     if sac_curves is None or sac_curves.empty or data.sac_per_seed is None or data.sac_per_seed.empty:
-        skipped = (sac_curves.attrs.get("sac_skipped") or {}) if sac_curves is not None else {}
+        skipped = attrs.get("sac_skipped") or {}
         why = ("SAC was skipped for " + "; ".join(f"{data.name(t)} ({r})" for t, r in skipped.items()) + ". "
-               if skipped else "SAC curves were not computed for this report, so ")
+               if skipped else "")
+        if command:
+            why += how + "Until then, "
+        elif not skipped:
+            why += "SAC curves were not computed for this report, so "
         return Section(title, (Paragraph(why + "the known complexity order is checked against the random-policy "
-                                         "metrics only. Run the SAC stage and rebuild the report to add the "
-                                         "empirical order."),))
+                                         "metrics only."),))
+    note = ()
+    if command and missing:
+        note = (Paragraph(f"Curves of {', '.join(data.name(t) for t in missing)} are not in the cache yet. " + how),)
     seeds = int(data.sac_per_seed.groupby(["task", "variant"]).size().max())
     grouped = "one panel per study group; " if any(s.group for s in data.styles.values()) else ""
     return Section(title, (
@@ -153,6 +163,7 @@ def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None
             "curve (its mean over training) and the env steps to cover 90 % of the improvement from the first "
             "evaluation to the final return.",
         ),
+        *note,
     ))
 
 

@@ -17,6 +17,7 @@ from taskcomplexity.cli import (
     check_study_settings,
     metrics_settings_from_config,
     run_name,
+    sac_command,
     study_from,
     study_requests,
 )
@@ -32,12 +33,14 @@ log = logging.getLogger("study")
 
 
 def _sac_curves(cfg: Any, cache, results):
-    """Learning curves of every task of the study (None when SAC is switched off or unavailable).
+    """Learning curves of every task of the study (None when the SAC stage is unavailable).
 
-    Tasks SAC skips (discrete actions) are listed in ``curves.attrs["sac_skipped"]`` ({id: reason}).
+    With ``sac.enabled=false`` nothing is trained: the curves the cache holds for these SAC settings
+    are used, the tasks it lacks are listed in ``curves.attrs["sac_missing"]`` and the command that
+    trains them in ``curves.attrs["sac_command"]``. Tasks SAC skips (discrete actions) are listed in
+    ``curves.attrs["sac_skipped"]`` ({id: reason}).
     """
-    if not cfg.sac.get("enabled", True):
-        return None
+    enabled = bool(cfg.sac.get("enabled", True))
     try:
         from taskcomplexity.stages.sac_stage import study_sac_curves
     except ImportError:  # pragma: no cover - the SAC stage is optional at import time
@@ -45,7 +48,14 @@ def _sac_curves(cfg: Any, cache, results):
         return None
     study = study_from(cfg)  # each entry carries its SAC budget (sac_steps) and solved_return
     tasks = [(study.task(r.task_id), r.request.task) for r in results]
-    return study_sac_curves(cache, tasks, cfg.sac, force=bool(cfg.force), progress=True)
+    curves = study_sac_curves(cache, tasks, cfg.sac, force=bool(cfg.force), progress=True, cached_only=not enabled)
+    if not enabled:
+        curves.attrs["sac_command"] = sac_command()
+        missing = curves.attrs.get("sac_missing") or []
+        if missing:
+            log.info("SAC not trained (sac.enabled=false); no cached curves for %d of %d tasks: %s",
+                     len(missing), len(tasks), curves.attrs["sac_command"])
+    return curves
 
 
 @dataclass(frozen=True)

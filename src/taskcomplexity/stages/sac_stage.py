@@ -31,6 +31,8 @@ CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
 SKIPPED_ATTR = "sac_skipped"
 """``curves.attrs[SKIPPED_ATTR]``: {study task id: reason} of the tasks SAC did not run on."""
+MISSING_ATTR = "sac_missing"
+"""``curves.attrs[MISSING_ATTR]``: study task ids whose curves the cache does not hold yet (``cached_only``)."""
 
 
 def sac_identity(task, settings, *, solved_return: float | None = None) -> dict:
@@ -52,15 +54,20 @@ def run_sac_stage(
     solved_return: float | None = None,
     force: bool = False,
     progress: bool = False,
-) -> tuple[Artefact, bool]:
+    cached_only: bool = False,
+) -> tuple[Artefact | None, bool]:
     """Train (or reuse) one SAC variant of ``task`` over its seed group.
 
     ``settings.total_steps`` must be the run's budget (see :func:`taskcomplexity.rl.with_budget`).
+    ``cached_only``: never train; (None, False) when the cache does not hold the curve.
     """
     from taskcomplexity.rl import train_sac_seeds
 
     identity = sac_identity(task, settings, solved_return=solved_return)
     key = stage_key(STAGE, VERSION, identity)
+    if cached_only:
+        found = cache.lookup(STAGE, key, config=identity)
+        return found, found is not None
     variant = "sac+her" if settings.her else "sac"
 
     def write(directory) -> dict:
@@ -84,7 +91,8 @@ def sac_settings_from_config(node: Any):
 
 
 def study_sac_curves(
-    cache: Cache, tasks: Sequence[tuple[Any, Any]], node: Any, *, force: bool = False, progress: bool = False
+    cache: Cache, tasks: Sequence[tuple[Any, Any]], node: Any, *, force: bool = False, progress: bool = False,
+    cached_only: bool = False,
 ) -> pd.DataFrame:
     """Every variant of sac.md (SAC; + HER on sparse reaching tasks) for every study task, as one tidy table.
 
@@ -95,6 +103,9 @@ def study_sac_curves(
         set, else the entry's ``sac_steps``; the entry's ``solved_return`` scores envs that report no
         success. The ``task`` column holds the entry's id.
     node : the ``sac`` config node.
+    cached_only : bool
+        Train nothing: the curves the cache holds for these settings (the ids of the tasks it lacks
+        in ``frame.attrs["sac_missing"]``).
 
     Returns
     -------
@@ -123,14 +134,21 @@ def study_sac_curves(
         runs.append((entry, task, budgeted))
     for task_id, reason in skipped.items():
         log.warning("SAC skipped for %s: %s", task_id, reason)
-    frames = []
+    frames, missing = [], []
     for entry, task, budgeted in runs:
+        found = []
         for variant in protocol_variants(task, budgeted):
-            artefact, hit = run_sac_stage(
-                cache, task, variant, solved_return=entry.solved_return, force=force, progress=progress
-            )
+            artefact, hit = run_sac_stage(cache, task, variant, solved_return=entry.solved_return, force=force,
+                                          progress=progress, cached_only=cached_only)
+            if artefact is None:
+                break
             log.info("sac %s %s: %s", entry.id, variant.variant, "cache hit" if hit else "trained")
-            frames.append(pd.read_parquet(artefact.file(CURVES)).assign(task=entry.id))
+            found.append(pd.read_parquet(artefact.file(CURVES)).assign(task=entry.id))
+        else:  # every variant of the task (a task's curves are shown whole or not at all)
+            frames.extend(found)
+            continue
+        missing.append(entry.id)
     curves = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=list(CURVE_COLUMNS))
     curves.attrs[SKIPPED_ATTR] = skipped
+    curves.attrs[MISSING_ATTR] = missing
     return curves
