@@ -209,3 +209,20 @@ def test_obstacle_upper_arm_clearance_is_pybullets_closest_distance(make_env):
     block_face = 1.25 - (0.0081 - block_margin) * (math.cos(a) + math.sin(a))
     expected = block_face - (0.70 - link_margin) - (link_margin + block_margin)
     assert env.upper_arm_clearance() == pytest.approx(expected, abs=1e-6)
+
+
+def test_connecting_to_pybullet_prints_nothing_and_leaves_both_streams_working(capfd):
+    env = ReachingEnv(arm="two_link", reward="dense")
+    try:
+        print("before")
+        env.reset(seed=0)
+        env.step(np.zeros(2))
+        print("after")
+        import sys
+
+        print("still stderr", file=sys.stderr)
+    finally:
+        env.close()
+    out, err = capfd.readouterr()
+    assert out == "before\nafter\n"  # no "argv[0]=" from PyBullet's connection
+    assert err == "still stderr\n"  # no build-time banner, and stderr works after the block

@@ -9,6 +9,7 @@ import numpy as np
 from gymnasium import spaces
 
 from taskcomplexity.tasks import mechanics
+from taskcomplexity.tasks.quiet import c_output_silenced
 from taskcomplexity.tasks.spec import TaskSpec, make_task
 from taskcomplexity.tasks.urdf import urdf_path
 
@@ -77,11 +78,12 @@ class ReachingEnv(gym.Env):
 
     # -- world ---------------------------------------------------------------------------------
     def _connect(self) -> None:
-        import pybullet
-        import pybullet_data
-        from pybullet_utils.bullet_client import BulletClient
-
-        client = BulletClient(connection_mode=pybullet.DIRECT)
+        with c_output_silenced(1, 2):  # PyBullet's build-time banner (stderr, at import)
+            import pybullet
+            import pybullet_data
+            from pybullet_utils.bullet_client import BulletClient
+        with c_output_silenced(1):  # its "argv[0]=" on every connection (stdout)
+            client = BulletClient(connection_mode=pybullet.DIRECT)
         client.setAdditionalSearchPath(pybullet_data.getDataPath())
         client.setGravity(0, 0, -10)
         client.setRealTimeSimulation(0)
