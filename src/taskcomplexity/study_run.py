@@ -13,7 +13,7 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report.build import build_report
 from taskcomplexity.stages.chain import StudyArtefacts, study_artefacts
 
-log = logging.getLogger("study")
+log = logging.getLogger(__name__)
 
 
 def write_report(artefacts: StudyArtefacts, out_dir: Path, title: str, *, registry: Registry = DEFAULT_REGISTRY

@@ -78,7 +78,7 @@ def test_the_artefact_has_a_row_for_every_metric_and_relation(stage):
 def test_a_second_run_is_a_cache_hit_and_any_input_change_is_a_new_key(stage, caplog):
     cache, metrics = stage
     first, _ = run_verdict_stage(cache, SEVEN_TASKS, metrics)
-    with caplog.at_level("INFO"):
+    with caplog.at_level("DEBUG", logger="taskcomplexity"):
         again, hit = run_verdict_stage(cache, SEVEN_TASKS, metrics)
     assert hit and again.key == first.key and "cache hit: verdict" in caplog.text
     fewer = replace(SEVEN_TASKS, relations=SEVEN_TASKS.relations[:1])

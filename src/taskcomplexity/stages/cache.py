@@ -151,6 +151,11 @@ def remove_orphans(directory: Path, pattern: str) -> int:
     return removed
 
 
+def outcome(hit: bool, seconds: float) -> str:
+    """A stage's outcome in the one-line summaries: ``cache hit`` or ``computed in 12 s``."""
+    return "cache hit" if hit else f"computed in {seconds:.0f} s"
+
+
 class Cache:
     """The artefact store under ``root`` (``<paths.outputs>/cache``)."""
 
@@ -220,7 +225,7 @@ class Cache:
         if not force:
             found = self.lookup(stage, key, config)
             if found is not None:
-                log.info("cache hit: %s %s (%s)", stage, key, found.path)
+                log.debug("cache hit: %s %s (%s)", stage, key, found.path)
                 return found, True
         final = self.path(stage, key)
         final.parent.mkdir(parents=True, exist_ok=True)
@@ -229,7 +234,7 @@ class Cache:
             if not force:
                 found = self.lookup(stage, key, config)
                 if found is not None:  # a concurrent job finished it while we waited
-                    log.info("cache hit: %s %s (computed by a concurrent job)", stage, key)
+                    log.debug("cache hit: %s %s (computed by a concurrent job)", stage, key)
                     return found, True
             tmp = final.parent / f".tmp-{key}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
             tmp.mkdir()
@@ -261,7 +266,7 @@ class Cache:
             finally:
                 if tmp.exists():
                     shutil.rmtree(tmp, ignore_errors=True)
-        log.info("computed: %s %s (%s)", stage, key, final)
+        log.debug("computed: %s %s (%s)", stage, key, final)
         return Artefact(stage, key, final), False
 
     def entries(self) -> list[dict[str, Any]]:

@@ -7,6 +7,7 @@ The report reads what these produce (:func:`study_artefacts`); it is written by
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,13 +24,13 @@ from taskcomplexity.cli import (
 )
 from taskcomplexity.config import build
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.stages.cache import Artefact
+from taskcomplexity.stages.cache import Artefact, outcome
 from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
 from taskcomplexity.stages.task_artefacts import TaskMetrics, study_metrics
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
 from taskcomplexity.study import Study
 
-log = logging.getLogger("study")
+log = logging.getLogger(__name__)
 
 
 def _sac_curves(cfg: Any, cache, results):
@@ -109,9 +110,10 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
         progress=True,
     )
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
+    started = time.perf_counter()
     verdict, hit = run_verdict_stage(cache, study, {r.task_id: r.metrics for r in results}, diagnostics=diagnostics,
                                      sac_curves=sac, alpha=settings.alpha, registry=registry, force=force)
-    log.info("verdict %s: %s", "cache hit" if hit else "computed", verdict.file("verdict.parquet"))
+    log.info("%-26s %s: %s", "verdict", outcome(hit, time.perf_counter() - started), verdict.file("verdict.parquet"))
     return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha)
 
 

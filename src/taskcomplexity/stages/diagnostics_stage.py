@@ -21,6 +21,7 @@ dominated by the 10 POIC searches of the null and the nearest-neighbour estimate
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -34,7 +35,7 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
-from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.cache import Artefact, Cache, outcome
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import load_returns
@@ -299,9 +300,10 @@ def study_diagnostics(
     """The diagnostics artefact of every task, keyed like ``rwg_artefacts`` (task id → RWG artefact)."""
     found = {}
     for task_id, rwg in rwg_artefacts.items():
+        started = time.perf_counter()
         artefact, hit = run_diagnostics_stage(
             cache, rwg, metrics_settings, diagnostics_settings, registry=registry, force=force, progress=progress
         )
-        log.info("%s: diagnostics %s", task_id, "cache hit" if hit else "computed")
+        log.info("%-26s diagnostics %s", task_id, outcome(hit, time.perf_counter() - started))
         found[task_id] = artefact
     return found

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
 
 import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.cache import Artefact, Cache, outcome
 from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage
 from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
 
@@ -45,13 +46,13 @@ def study_metrics(
     names = names or [r.task.task_id for r in requests]
     results = []
     for name, request in zip(names, requests, strict=True):
+        started = time.perf_counter()
         rwg, rwg_hit = run_rwg_stage(cache, request, force=force, progress=progress)
+        middle = time.perf_counter()
         metrics, hit = run_metrics_stage(cache, rwg, settings, label=request.label, registry=registry, force=force,
                                          progress=progress)
-        log.info(
-            "%s: rwg %s, metrics %s", request.task.task_id, "cache hit" if rwg_hit else "computed",
-            "cache hit" if hit else "computed",
-        )
+        log.info("%-26s rwg %s, metrics %s", name, outcome(rwg_hit, middle - started),
+                 outcome(hit, time.perf_counter() - middle))
         results.append(TaskMetrics(name, request, rwg, metrics))
     return results
 
