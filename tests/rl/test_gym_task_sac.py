@@ -3,9 +3,7 @@ discrete action spaces are skipped with one line; budgets come from the study fi
 
 from __future__ import annotations
 
-import importlib.util
 import logging
-from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -15,6 +13,7 @@ import torch
 from gymnasium import spaces
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
+from taskcomplexity.commands import sac as sac_command
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import CURVE_COLUMNS, SACSettings, train_sac
@@ -26,7 +25,6 @@ from taskcomplexity.study import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
 
-ROOT = Path(__file__).resolve().parents[2]
 PENDULUM = GymTask("Pendulum-v1")
 # Pendulum-v1's reward per step is −(θ² + 0.1·θ̇² + 0.001·u²) ∈ [−16.2736044, 0]; 200 steps per episode.
 PENDULUM_WORST_RETURN = -16.2736044 * 200
@@ -34,13 +32,6 @@ PENDULUM_WORST_RETURN = -16.2736044 * 200
 # short (an episode cut there is not a training return).
 SMOKE = SACSettings(total_steps=300, warmup_steps=100, eval_every=100, eval_episodes=2, checkpoint_every=300,
                     seeds=(0,))
-
-
-def _load_pipeline(name: str):
-    spec = importlib.util.spec_from_file_location(f"pipelines_{name}", ROOT / "pipelines" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.fixture(scope="module")
@@ -193,27 +184,38 @@ def test_success_is_read_from_the_envs_info_when_it_reports_it(succeed):
 
 
 def test_pipelines_sac_finds_the_budget_of_the_composed_task_in_the_study(compose_config):
-    sac = _load_pipeline("sac")
     cfg = compose_config("arm=two_link", "reward=sparse")
-    entry = sac.study_entry_for(cfg, sac.task_from_config(cfg))
+    entry = sac_command.study_entry_for(cfg, sac_command.task_from_config(cfg))
     assert (entry.id, entry.sac_steps) == ("two_link-sparse", 200_000)
     # a modified arm is not the study's task
     cfg = compose_config("arm=two_link", "reward=sparse", "arm.links.0.mass=7")
-    assert sac.study_entry_for(cfg, sac.task_from_config(cfg)) is None
+    assert sac_command.study_entry_for(cfg, sac_command.task_from_config(cfg)) is None
 
 
 def test_pipelines_sac_without_a_budget_fails_with_one_line_naming_sac_total_steps(compose_config, capsys):
-    sac = _load_pipeline("sac")
     with pytest.raises(SystemExit):
-        sac.run(compose_config("task=pendulum"))
+        sac_command.run(compose_config("task=pendulum"))
     err = capsys.readouterr().err.strip()
     assert "sac.total_steps" in err and "Pendulum-v1" in err and len(err.splitlines()) == 1
 
 
 def test_pipelines_sac_trains_a_gym_task_into_the_cache(compose_config, tmp_path):
-    sac = _load_pipeline("sac")
     cfg = compose_config("task=pendulum", "sac=smoke", "sac.eval_episodes=1")
-    artefact = sac.run(cfg)
+    artefact = sac_command.run(cfg)
     curve = pd.read_parquet(artefact.file(CURVES))
     assert curve["env_step"].tolist() == [0, 100, 200, 300]
     assert curve["eval/return_mean"].between(PENDULUM_WORST_RETURN, 0.0).all()
+
+
+def test_the_training_plan_counts_what_is_left_and_drops_what_the_cache_holds(tmp_path):
+    from taskcomplexity.rl import with_budget
+    from taskcomplexity.stages.sac_stage import SEED_STEPS_PER_SECOND, training_plan
+
+    study = _study({"id": "pend", "task": "pendulum", "sac_steps": 200})
+    node = {"seeds": [0, 1], "warmup_steps": 100, "eval_every": 100, "eval_episodes": 1, "hidden_sizes": [16, 16],
+            "checkpoint_every": 100}
+    runs = [(study.task("pend"), PENDULUM, with_budget(build(SACSettings, node, "sac"), 200, task_id="pend"))]
+    hours = 400 / SEED_STEPS_PER_SECOND / 3600
+    assert training_plan(Cache(tmp_path), runs).startswith(f"1 of 1 runs to train, 400 seed-steps: about {hours:.1f} h")
+    study_sac_curves(Cache(tmp_path), [(study.task("pend"), PENDULUM)], node)
+    assert training_plan(Cache(tmp_path), runs) == "all 1 runs in the cache"

@@ -84,6 +84,36 @@ def run_sac_stage(
     return cache.get_or_compute(STAGE, key, write, config=identity, force=force, after=cleanup)
 
 
+SEED_STEPS_PER_SECOND = 110.0
+"""Training throughput of the protocol's runs, environment steps per second summed over the seeds of a
+run (five seeds trained together, one gradient update per step, evaluations included), on the 2-core
+development machine (``bench/bench_sac.py`` measures it on yours): the basis of the upfront estimate."""
+
+
+def training_plan(cache: Cache, runs) -> str:
+    """One line: how many SAC runs are left to train, their seed-steps and the estimated wall time.
+
+    ``runs`` are (StudyTask, Task, budgeted SACSettings); a run whose curve the cache holds is done.
+    An interrupted run resumes from its last checkpoint, so the estimate is an upper bound then.
+    """
+    from taskcomplexity.rl import protocol_variants
+
+    total, todo, seed_steps = 0, 0, 0
+    for entry, task, budgeted in runs:
+        for variant in protocol_variants(task, budgeted):
+            total += 1
+            key = stage_key(STAGE, VERSION, sac_identity(task, variant, solved_return=entry.solved_return))
+            if cache.lookup(STAGE, key) is None:
+                todo += 1
+                seed_steps += int(variant.total_steps) * len(variant.seeds)
+    if not todo:
+        return f"all {total} runs in the cache"
+    hours = seed_steps / SEED_STEPS_PER_SECOND / 3600
+    return (f"{todo} of {total} runs to train, {seed_steps:,} seed-steps: about {hours:.1f} h at "
+            f"{SEED_STEPS_PER_SECOND:.0f} seed-steps/s (bench/bench_sac.py measures this machine; an "
+            "interrupted run resumes from its last checkpoint)")
+
+
 def sac_settings_from_config(node: Any):
     from taskcomplexity.rl.settings import SACSettings
 
@@ -134,6 +164,8 @@ def study_sac_curves(
         runs.append((entry, task, budgeted))
     for task_id, reason in skipped.items():
         log.warning("SAC skipped for %s: %s", task_id, reason)
+    if not cached_only:
+        log.info("%-26s %s", "sac", training_plan(cache, runs))
     frames, missing = [], []
     for entry, task, budgeted in runs:
         found = []
