@@ -1,0 +1,130 @@
+"""The main job's time, stage by stage: where `make run` spends its wall time and how much of the cores it uses.
+
+Runs the seven-task study of ``experiment=published`` (SAC off, as in `make run`) into a fresh
+temporary cache, timing every stage of every task: wall seconds, CPU seconds (all threads of this
+process) and the core share, CPU / (wall × cores) — 1.00 means every core was busy the whole time.
+The published scale (N = 10⁴ × M = 500, B = 10⁵, 1000 resamples) takes tens of minutes here, so the
+default is a reduced scale given by ``--policies``/``--episodes``/``--resamples`` (B stays 10⁵); the
+last column projects each stage to the published N × M by linear scaling (RWG and the metrics are
+linear in N·M; the projection of the diagnostics and the bootstrap is rougher).
+
+    .venv/bin/python bench/bench_study.py                    # N = 1000 × M = 100: about 4 minutes
+    .venv/bin/python bench/bench_study.py --published        # the published scale itself
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import argparse
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from hydra import compose, initialize_config_dir
+from omegaconf import open_dict
+
+from taskcomplexity.cli import (
+    CONF_DIR,
+    cache_from_config,
+    check_study_settings,
+    metrics_settings_from_config,
+    study_from,
+    study_requests,
+)
+from taskcomplexity.config import build
+from taskcomplexity.rwg import simulate_chunk
+from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, run_diagnostics_stage
+from taskcomplexity.stages.metrics_stage import run_metrics_stage
+from taskcomplexity.stages.rwg_stage import run_rwg_stage
+from taskcomplexity.stages.verdict_stage import run_verdict_stage
+
+CORES = os.cpu_count() or 1
+
+
+class Timer:
+    """Wall and CPU seconds of a block (CPU: this process, every thread)."""
+
+    def __enter__(self):
+        self.wall, self.cpu = time.perf_counter(), time.process_time()
+        return self
+
+    def __exit__(self, *exc):
+        self.wall = time.perf_counter() - self.wall
+        self.cpu = time.process_time() - self.cpu
+
+    @property
+    def share(self) -> float:
+        return self.cpu / max(self.wall, 1e-9) / CORES
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--policies", type=int, default=1000)
+    parser.add_argument("--episodes", type=int, default=100)
+    parser.add_argument("--resamples", type=int, default=200)
+    parser.add_argument("--published", action="store_true", help="N, M and resamples of experiment=published")
+    args = parser.parse_args()
+    overrides = ["experiment=published"]
+    if not args.published:
+        overrides += [f"rwg.policies={args.policies}", f"rwg.episodes={args.episodes}",
+                      f"metrics.resamples={args.resamples}"]
+    with tempfile.TemporaryDirectory() as outputs, initialize_config_dir(config_dir=str(CONF_DIR),
+                                                                         version_base="1.3"):
+        cfg = compose("config", overrides=overrides)
+        with open_dict(cfg):
+            cfg.paths.outputs = str(Path(outputs) / "outputs")
+        study = study_from(cfg)
+        entries, requests = zip(*study_requests(cfg, study), strict=True)
+        check_study_settings(cfg, study, requests)
+        settings = metrics_settings_from_config(cfg)
+        diagnostics_settings = build(DiagnosticsSettings, cfg.diagnostics, "diagnostics")
+        cache = cache_from_config(cfg)
+        n, m = int(cfg.rwg.policies), int(cfg.rwg.episodes)
+        scale = 10_000 * 500 / (n * m)
+        print(f"seven tasks at N = {n:,} × M = {m:,}, B = {settings.bins:,}, {settings.resamples} resamples, "
+              f"{CORES} cores; projection × {scale:g} to N = 10,000 × M = 500")
+        with Timer() as t:  # numba compiles (or loads from its cache) each kernel at its first call
+            for request in requests:
+                simulate_chunk(request.task, request.network, request.prior,
+                               replace(request.settings, policies=2, episodes=2), 0, 2, request.backend)
+        print(f"warm-up: the kernels' first calls (numba compilation, cached on disk after a first run) "
+              f"{t.wall:.1f} s, not counted below")
+        rows, metrics, diagnostics = [], {}, {}
+        print(f"{'task':<26} {'stage':<12} {'wall s':>8} {'CPU s':>8} {'core share':>10} {'projected s':>12}")
+
+        def report(task: str, stage: str, timer: Timer, linear: bool = True) -> None:
+            rows.append((stage, timer))
+            projected = f"{timer.wall * scale:12.0f}" if linear else f"{'':>12}"
+            print(f"{task:<26} {stage:<12} {timer.wall:8.1f} {timer.cpu:8.1f} {timer.share:10.2f} {projected}",
+                  flush=True)
+
+        for entry, request in zip(entries, requests, strict=True):
+            with Timer() as t:
+                rwg, _ = run_rwg_stage(cache, request)
+            report(entry.id, "rwg", t)
+            with Timer() as t:
+                metrics[entry.id], _ = run_metrics_stage(cache, rwg, settings)
+            report(entry.id, "metrics", t)
+            with Timer() as t:
+                diagnostics[entry.id], _ = run_diagnostics_stage(cache, rwg, settings, diagnostics_settings)
+            report(entry.id, "diagnostics", t)
+        with Timer() as t:
+            run_verdict_stage(cache, study, metrics, diagnostics=diagnostics, alpha=settings.alpha)
+        report("all", "verdict", t, linear=False)
+        print(f"\n{'stage':<12} {'wall s':>8} {'share of wall':>14} {'core share':>10} {'projected s':>12}")
+        total = sum(t.wall for _, t in rows)
+        for stage in ("rwg", "metrics", "diagnostics", "verdict"):
+            timers = [t for s, t in rows if s == stage]
+            wall, cpu = sum(t.wall for t in timers), sum(t.cpu for t in timers)
+            projected = f"{wall * scale:12.0f}" if stage != "verdict" else f"{wall:12.0f}"
+            print(f"{stage:<12} {wall:8.1f} {wall / total:14.0%} {cpu / wall / CORES:10.2f} {projected}")
+        print(f"{'total':<12} {total:8.1f} {'':>14} {sum(t.cpu for _, t in rows) / total / CORES:10.2f} "
+              f"{sum(t.wall * (scale if s != 'verdict' else 1) for s, t in rows):12.0f}")
+
+
+if __name__ == "__main__":
+    main()
