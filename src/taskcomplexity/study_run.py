@@ -37,6 +37,5 @@ def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
     title = cfg.report.get("title") or f"How hard is each task? ({name})"
     index = write_report(artefacts, Path(cfg.paths.outputs) / "reports" / name, title, registry=registry)
     elapsed = time.time() - started
-    log.info("study %s done in %.0f s", name, elapsed)
     print(f"\nStudy '{name}' finished in {elapsed:.0f} s.\nReport: {index.resolve()}", flush=True)
     return index

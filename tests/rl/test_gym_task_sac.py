@@ -215,7 +215,7 @@ def test_the_training_plan_counts_what_is_left_and_drops_what_the_cache_holds(tm
     node = {"seeds": [0, 1], "warmup_steps": 100, "eval_every": 100, "eval_episodes": 1, "hidden_sizes": [16, 16],
             "checkpoint_every": 100}
     runs = [(study.task("pend"), PENDULUM, with_budget(build(SACSettings, node, "sac"), 200, task_id="pend"))]
-    hours = 400 / SEED_STEPS_PER_SECOND / 3600
-    assert training_plan(Cache(tmp_path), runs).startswith(f"1 of 1 runs to train, 400 seed-steps: about {hours:.1f} h")
+    minutes = max(1, round(400 / SEED_STEPS_PER_SECOND / 60))
+    assert training_plan(Cache(tmp_path), runs).startswith(f"1 of 1 runs to train, 400 seed-steps: about {minutes} min")
     study_sac_curves(Cache(tmp_path), [(study.task("pend"), PENDULUM)], node)
     assert training_plan(Cache(tmp_path), runs) == "all 1 runs in the cache"

@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import logging
 import shutil
+import time
 from collections.abc import Sequence
 from typing import Any
 
 import pandas as pd
 
 from taskcomplexity.config import build, result_identity
-from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.cache import Artefact, Cache, outcome
 from taskcomplexity.stages.keys import stage_key
 
 log = logging.getLogger(__name__)
@@ -108,8 +109,9 @@ def training_plan(cache: Cache, runs) -> str:
                 seed_steps += int(variant.total_steps) * len(variant.seeds)
     if not todo:
         return f"all {total} runs in the cache"
-    hours = seed_steps / SEED_STEPS_PER_SECOND / 3600
-    return (f"{todo} of {total} runs to train, {seed_steps:,} seed-steps: about {hours:.1f} h at "
+    seconds = seed_steps / SEED_STEPS_PER_SECOND
+    duration = f"{seconds / 3600:.1f} h" if seconds >= 3600 else f"{max(1, round(seconds / 60))} min"
+    return (f"{todo} of {total} runs to train, {seed_steps:,} seed-steps: about {duration} at "
             f"{SEED_STEPS_PER_SECOND:.0f} seed-steps/s (bench/bench_sac.py measures this machine; an "
             "interrupted run resumes from its last checkpoint)")
 
@@ -170,11 +172,12 @@ def study_sac_curves(
     for entry, task, budgeted in runs:
         found = []
         for variant in protocol_variants(task, budgeted):
+            started = time.perf_counter()
             artefact, hit = run_sac_stage(cache, task, variant, solved_return=entry.solved_return, force=force,
                                           progress=progress, cached_only=cached_only)
             if artefact is None:
                 break
-            log.info("sac %s %s: %s", entry.id, variant.variant, "cache hit" if hit else "trained")
+            log.info("%-26s %s %s", entry.id, variant.variant, outcome(hit, time.perf_counter() - started))
             found.append(pd.read_parquet(artefact.file(CURVES)).assign(task=entry.id))
         else:  # every variant of the task (a task's curves are shown whole or not at all)
             frames.extend(found)
