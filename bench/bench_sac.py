@@ -25,17 +25,17 @@ import multiprocessing
 import os
 import sys
 import time
-from pathlib import Path
 
 import torch
 
 import taskcomplexity  # noqa: F401 - registers the tasks
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.rl import SACSettings, protocol_variants, train_sac, train_sac_seeds, with_budget
 from taskcomplexity.rl.factories import make_env
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
 
-PAPER_STUDY = Path(__file__).resolve().parents[1] / "conf" / "study" / "paper.yaml"
+PAPER_STUDY = CONF_DIR / "study" / "seven_tasks.yaml"
 BENCH_TASK = ("one_link_1m0", "dense")
 PAPER_SEEDS = 5
 WARMUP = 1000
@@ -44,7 +44,7 @@ ENV_PROBE_WARMUP = 20
 
 
 def paper_runs() -> list[tuple[str, str, bool, int]]:
-    """(arm, reward, her, budget per seed) of every run of the paper protocol (budgets: conf/study/paper.yaml)."""
+    """(arm, reward, her, budget per seed) of every run of the paper protocol (budgets: study/seven_tasks.yaml)."""
     paper = SACSettings()  # the defaults are the published protocol
     study = load_study_file(PAPER_STUDY)
     runs = []

@@ -1,74 +1,10 @@
-"""Metrics stage: every registered metric of the metrics stage, its bootstrap and batch estimates, per task.
+"""Metrics stage: every registered metric of each study task (or one task), cached.
 
-    python pipelines/metrics.py experiment=smoke                  # every task of the study
-    python pipelines/metrics.py metrics.scope=task task=pendulum  # one task
-
-Pulls (computes if missing) the RWG artefact each task needs, logs where each metrics artefact is, and
-prints the point estimates (one row per task, one column per metric). The study's tables (Table 1,
-intervals, Welch matrices) are the report's: ``python pipelines/report.py`` writes them once, under
-``<paths.outputs>/reports/<study>/tables/``.
+The entry point is :mod:`taskcomplexity.commands.metrics` (usage in its docstring); this file runs it from a
+checkout, as ``taskcomplexity-metrics`` does from an installed package.
 """
 
-from __future__ import annotations
-
-import os
-
-# Before torch and NumPy load their thread pools: OpenMP threads that spin-wait after a parallel region
-# would steal the cores from numba's kernels (2x slower RWG on 2 cores). The process is this entry
-# point's to configure; the library itself sets nothing at import.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
-import logging
-import sys
-
-import hydra
-from omegaconf import DictConfig
-
-from taskcomplexity.cli import (
-    cache_from_config,
-    check_overrides,
-    metrics_settings_from_config,
-    one_line_errors,
-    run_name,
-    rwg_request_from_config,
-    study_requests,
-)
-from taskcomplexity.config import task_from_config
-from taskcomplexity.errors import ConfigError
-from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
-from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
-
-log = logging.getLogger("metrics")
-
-
-@one_line_errors
-def run(cfg: DictConfig):
-    scope = cfg.metrics.get("scope", "study")
-    if scope not in ("study", "task"):
-        raise ConfigError(f"metrics.scope must be one of ['study', 'task'], got {scope!r}")
-    if scope == "study":
-        entries, requests = zip(*study_requests(cfg), strict=True)
-        names = [entry.id for entry in entries]
-    else:
-        names, requests = None, [rwg_request_from_config(cfg, task_from_config(cfg))]
-    settings = metrics_settings_from_config(cfg)
-    cache = cache_from_config(cfg)
-    results = study_metrics(
-        cache, list(requests), settings, names=list(names) if names else None, force=bool(cfg.force), progress=True
-    )
-    for result in results:
-        log.info("%s: %s", result.task_id, result.metrics.file("metrics.parquet"))
-    names = ["task", *(m.name for m in DEFAULT_REGISTRY.of_stage("metrics"))]
-    frame = metrics_frame(results)
-    print(f"{run_name(cfg)}:\n" + frame[[c for c in names if c in frame.columns]].to_string(index=False), flush=True)
-    return results
-
-
-@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
-def main(cfg: DictConfig) -> None:
-    run(cfg)
-
+from taskcomplexity.commands.metrics import main
 
 if __name__ == "__main__":
-    check_overrides(sys.argv)
     main()

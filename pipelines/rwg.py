@@ -1,50 +1,10 @@
-"""RWG stage: sample N random policies × M episodes of one task → returns.parquet (cached).
+"""RWG stage: N random policies × M episodes of one task → returns.parquet (cached).
 
-    python pipelines/rwg.py arm=two_link reward=sparse rwg.policies=1000 rwg.episodes=100
-    python pipelines/rwg.py -m arm=one_link_1m0,one_link_1m65,two_link reward=dense,sparse experiment=smoke
+The entry point is :mod:`taskcomplexity.commands.rwg` (usage in its docstring); this file runs it from a
+checkout, as ``taskcomplexity-rwg`` does from an installed package.
 """
 
-from __future__ import annotations
-
-import os
-
-# Before torch and NumPy load their thread pools: OpenMP threads that spin-wait after a parallel region
-# would steal the cores from numba's kernels (2x slower RWG on 2 cores). The process is this entry
-# point's to configure; the library itself sets nothing at import.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
-import logging
-import sys
-
-import hydra
-from omegaconf import DictConfig
-
-from taskcomplexity.cli import cache_from_config, check_overrides, one_line_errors, rwg_request_from_config
-from taskcomplexity.stages.rwg_stage import run_rwg_stage
-
-log = logging.getLogger("rwg")
-
-
-@one_line_errors
-def run(cfg: DictConfig):
-    """Compute or reuse the returns artefact of the composed task and sampler."""
-    request = rwg_request_from_config(cfg)
-    cache = cache_from_config(cfg)
-    artefact, hit = run_rwg_stage(
-        cache, request, force=bool(cfg.force), progress=True, compute_missing=request.settings.shards == 1
-    )
-    if artefact is None:
-        log.info("shard %d/%d done for %s", request.settings.shard, request.settings.shards, request.label)
-        return None
-    log.info("%s returns %s: %s", "cache hit" if hit else "computed", request.label, artefact.file("returns.parquet"))
-    return artefact
-
-
-@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
-def main(cfg: DictConfig) -> None:
-    run(cfg)
-
+from taskcomplexity.commands.rwg import main
 
 if __name__ == "__main__":
-    check_overrides(sys.argv)
     main()

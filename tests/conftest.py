@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import open_dict
 
-CONF_DIR = str(Path(__file__).resolve().parents[1] / "conf")
+from taskcomplexity.cli import CONF_DIR
 
 
 @pytest.fixture
@@ -18,7 +16,7 @@ def compose_config(tmp_path):
 
     def _compose(*overrides: str):
         GlobalHydra.instance().clear()
-        with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
             cfg = compose("config", overrides=list(overrides))
         with open_dict(cfg):
             if not any(o.startswith("paths.outputs=") for o in overrides):

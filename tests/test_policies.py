@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import torch
 import yaml
 from gymnasium import spaces
 
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
@@ -18,8 +17,6 @@ from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.rwg_stage import STAGE, VERSION, RWGRequest
 from taskcomplexity.tasks.base import decode_actions
 from taskcomplexity.tasks.spec import make_task
-
-CONF = Path(__file__).resolve().parents[1] / "conf"
 
 
 @pytest.mark.parametrize("network", [NetworkSpec(), NetworkSpec(hidden=(64,), bias=True)])
@@ -124,10 +121,10 @@ def test_the_new_fields_at_their_defaults_keep_the_papers_cache_keys():
 @pytest.mark.parametrize("name", ["pic_linear", "pic_h1_4", "pic_h1_32", "pic_h1_64", "pic_h2_4", "pic_h2_32",
                                   "pic_h2_64"])
 def test_the_family_options_build(name):
-    node = yaml.safe_load((CONF / "network" / f"{name}.yaml").read_text())
+    node = yaml.safe_load((CONF_DIR / "network" / f"{name}.yaml").read_text())
     network = build(NetworkSpec, node, "network")
     assert (network.activation, network.output, network.bias, network.input_bias) == ("tanh", "linear", False, False)
     assert len(network.hidden) == (0 if name == "pic_linear" else int(name[5])) and set(network.hidden) <= {4, 32, 64}
     for prior in ("normal", "uniform", "xavier_normal_tanh", "xavier_uniform_tanh"):
-        spec = build(PriorSpec, yaml.safe_load((CONF / "prior" / f"{prior}.yaml").read_text()), "prior")
+        spec = build(PriorSpec, yaml.safe_load((CONF_DIR / "prior" / f"{prior}.yaml").read_text()), "prior")
         assert spec.gain == (5 / 3 if prior.endswith("tanh") else 1.0)

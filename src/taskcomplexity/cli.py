@@ -13,6 +13,7 @@ import logging
 import os
 import re
 import sys
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,9 @@ from omegaconf.errors import InterpolationKeyError
 from taskcomplexity.config import build, task_from_config
 from taskcomplexity.errors import ConfigError, TaskComplexityError
 
-CONF_DIR = Path(__file__).resolve().parents[2] / "conf"
+CONF_DIR = Path(str(resources.files("taskcomplexity") / "conf"))
+"""The packaged Hydra configs (``taskcomplexity/conf``, shipped as package data): every entry point's
+primary config directory, in a source checkout and in an installed package alike."""
 GROUPS = ("task", "arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "sac", "report", "study",
           "experiment")
 EXIT_BAD_INPUT = 2
@@ -383,10 +386,13 @@ def check_study_settings(cfg: Any, study, requests) -> None:
 def sac_command() -> str:
     """The command that trains the SAC curves a run without SAC lacks: its own overrides + sac.enabled=true.
 
-    ``make paper`` is that command for ``make run`` (``experiment=published``).
+    ``make paper`` is that command for ``make run`` (``experiment=published``). The program is the
+    one this process runs as: ``python pipelines/study.py`` in a checkout, else the console script.
     """
     kept = [o for o in user_overrides() if o.split("=", 1)[0].lstrip("+~") not in ("sac.enabled", "force")]
-    command = " ".join(["python pipelines/study.py", *kept, "sac.enabled=true"])
+    checkout = Path(sys.argv[0]).parent.name == "pipelines"
+    program = "python pipelines/study.py" if checkout else "taskcomplexity-study"
+    command = " ".join([program, *kept, "sac.enabled=true"])
     return f"make paper ({command})" if kept == ["experiment=published"] else command
 
 

@@ -1,7 +1,7 @@
 """A study as data: its tasks (with display labels, groups, colours and SAC budgets), the known
 complexity relations between them, optional total orders and reference scores.
 
-Studies live in ``conf/study/*.yaml`` (or a researcher's own directory on Hydra's search path); the
+Studies live in ``taskcomplexity/conf/study/*.yaml`` (or a researcher's own directory on Hydra's search path); the
 verdict judges the study's relations, the report takes its labels, table order and colours from
 here. Nothing about a particular task is hard-coded elsewhere.
 
@@ -220,7 +220,7 @@ def _published(node: Any) -> PublishedScale | None:
 
 
 def load_study_file(path) -> Study:
-    """A study YAML file (e.g. ``conf/study/seven_tasks.yaml``) as a :class:`Study`."""
+    """A study YAML file (e.g. ``taskcomplexity/conf/study/seven_tasks.yaml``) as a :class:`Study`."""
     from omegaconf import OmegaConf
 
     return study_from_config(OmegaConf.load(path))
@@ -236,7 +236,7 @@ def _task_entry(entry: Any, i: int) -> StudyTask:
                           f"(allowed: {', '.join(sorted(SELECTION_KEYS + DISPLAY_KEYS))})")
     selection = {k: entry[k] for k in SELECTION_KEYS if entry.get(k) is not None}
     if "task" not in selection and "arm" not in selection and "env_id" not in selection:
-        raise ConfigError(f"{where} must choose a task: task (a conf/task preset), env_id, or arm and reward")
+        raise ConfigError(f"{where} must choose a task: task (a task/ preset), env_id, or arm and reward")
     task_id = entry.get("id") or default_id(selection)
     if not isinstance(task_id, str) or not re.fullmatch(r"[A-Za-z0-9_.:\-]+", task_id):
         raise ConfigError(f"{where}.id must be a name of letters, digits, '_', '.', ':', '-', got {task_id!r}")

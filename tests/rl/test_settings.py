@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import SACSettings, protocol_variants, with_budget
@@ -13,8 +12,7 @@ from taskcomplexity.study import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
-SAC_OPTIONS = sorted(p.stem for p in (CONF / "sac").glob("*.yaml"))
+SAC_OPTIONS = sorted(p.stem for p in (CONF_DIR / "sac").glob("*.yaml"))
 # shared/spec/sac.md § Protocol: environment steps per seed.
 SPEC_BUDGETS = {
     "one_link_1m0-dense": 50_000,

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import random
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -13,6 +12,7 @@ import torch
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.rl import CURVE_COLUMNS, SACSettings, train_sac, train_sac_seeds
@@ -21,12 +21,11 @@ from taskcomplexity.rl.factories import make_actor_critic, make_collector, make_
 from taskcomplexity.tasks.spec import make_task
 
 TASK = make_task("one_link_1m0", "dense")
-CONF_DIR = str(Path(__file__).resolve().parents[2] / "conf")
 
 
 @pytest.fixture
 def smoke(compose_config) -> SACSettings:
-    """conf/sac/smoke.yaml: 300 steps, 100 of warm-up, evaluation every 100 steps."""
+    """taskcomplexity/conf/sac/smoke.yaml: 300 steps, 100 of warm-up, evaluation every 100 steps."""
     return build(SACSettings, compose_config("sac=smoke").sac, "sac")
 
 
@@ -34,7 +33,7 @@ def smoke(compose_config) -> SACSettings:
 def smoke_run(tmp_path_factory):
     """One smoke run of ``train_sac`` with a checkpoint directory, and the global state around it."""
     GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=CONF_DIR, version_base="1.3"):
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         settings = build(SACSettings, compose("config", overrides=["sac=smoke"]).sac, "sac")
     GlobalHydra.instance().clear()
     directory = tmp_path_factory.mktemp("smoke")

@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.cli import rwg_request_from_config
+from taskcomplexity.commands import metrics as metrics_command
 from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache
@@ -111,13 +112,8 @@ def test_interrupted_run_resumes_from_completed_chunks(tmp_path, monkeypatch):
 
 
 def test_smoke_study_through_both_stages_on_the_pybullet_backend(compose_config, tmp_path):
-    sys.path.insert(0, str(ROOT / "pipelines"))
-    try:
-        import metrics as metrics_entry
-    finally:
-        sys.path.pop(0)
     cfg = compose_config("experiment=smoke", "backend=pybullet")
-    results = metrics_entry.run(cfg)
+    results = metrics_command.run(cfg)
     assert [r.task_id for r in results] == [
         "one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense", "two_link_obstacle-dense",
         "one_link_1m0-sparse", "one_link_1m65-sparse", "two_link-sparse"]  # study order

@@ -3,19 +3,18 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import pytest
 import yaml
 
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build, task_from_config
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.tasks.spec import ARMS, REWARDS, ArmSpec, RewardSpec, make_task
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
-ARM_NAMES = sorted(p.stem for p in (CONF / "arm").glob("*.yaml"))
-REWARD_NAMES = sorted(p.stem for p in (CONF / "reward").glob("*.yaml"))
+ARM_NAMES = sorted(p.stem for p in (CONF_DIR / "arm").glob("*.yaml"))
+REWARD_NAMES = sorted(p.stem for p in (CONF_DIR / "reward").glob("*.yaml"))
 
 
 @pytest.mark.parametrize("arm", ARM_NAMES)
@@ -40,7 +39,7 @@ def test_yaml_arms_equal_the_presets(compose_config, arm):
 
 @pytest.mark.parametrize("reward", REWARD_NAMES)
 def test_yaml_rewards_equal_the_presets(reward):
-    assert build(RewardSpec, yaml.safe_load((CONF / "reward" / f"{reward}.yaml").read_text()), "reward") == REWARDS[reward]
+    assert build(RewardSpec, yaml.safe_load((CONF_DIR / "reward" / f"{reward}.yaml").read_text()), "reward") == REWARDS[reward]
 
 
 @pytest.mark.parametrize(
@@ -74,8 +73,8 @@ def test_presets_are_frozen_dataclasses():
         arm.time_step = 1.0  # type: ignore[misc]
 
 
-TASK_PRESETS = sorted(p.stem for p in (CONF / "task").glob("*.yaml") if p.stem not in ("gym", "reaching"))
-STUDIES = sorted(p.stem for p in (CONF / "study").glob("*.yaml"))
+TASK_PRESETS = sorted(p.stem for p in (CONF_DIR / "task").glob("*.yaml") if p.stem not in ("gym", "reaching"))
+STUDIES = sorted(p.stem for p in (CONF_DIR / "study").glob("*.yaml"))
 
 
 @pytest.mark.parametrize("preset", TASK_PRESETS)
@@ -114,7 +113,7 @@ def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compos
         assert request.backend == request.task.backends[0]  # backend=auto: the task's fastest
         for group, cls in (("prior", PriorSpec), ("network", NetworkSpec)):
             chosen = entry.selection.get(group, {"prior": "normal", "network": "mlp32"}[group])
-            expected = build(cls, yaml.safe_load((CONF / group / f"{chosen}.yaml").read_text()), group)
+            expected = build(cls, yaml.safe_load((CONF_DIR / group / f"{chosen}.yaml").read_text()), group)
             assert getattr(request, group) == expected
     for relation in loaded.relations:
         assert {relation.easier, relation.harder} <= set(loaded.ids)

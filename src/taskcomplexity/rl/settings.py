@@ -1,4 +1,4 @@
-"""Every hyper-parameter of the SAC (+HER) stage, as one frozen dataclass (``conf/sac/*.yaml``)."""
+"""Every hyper-parameter of the SAC (+HER) stage, as one frozen dataclass (``taskcomplexity/conf/sac/*.yaml``)."""
 
 from __future__ import annotations
 

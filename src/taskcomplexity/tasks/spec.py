@@ -1,8 +1,8 @@
 """Task specifications: the arm, the reward and (optionally) the obstacle of a reaching task.
 
-Plain frozen dataclasses, usable without Hydra. The Hydra configs under ``conf/arm`` and
-``conf/reward`` hold exactly these fields; ``tests/tasks/test_config.py`` keeps the YAML files and
-the presets below equal. All lengths in metres, masses in kilograms, angles in radians, torques in
+Plain frozen dataclasses, usable without Hydra. The Hydra configs under ``taskcomplexity/conf/arm``
+and ``taskcomplexity/conf/reward`` hold exactly these fields; ``tests/tasks/test_config.py`` keeps the
+YAML files and the presets below equal. All lengths in metres, masses in kilograms, angles in radians, torques in
 N·m, times in seconds (see ``shared/spec/environments.md``).
 """
 

@@ -1,0 +1,18 @@
+"""The entry points: one Hydra app per stage plus ``study`` for the whole chain.
+
+Each module's ``main()`` is a console script of the installed package (``taskcomplexity-rwg``,
+``-metrics``, ``-sac``, ``-verdict``, ``-study``) and the body of its shim under the repository's
+``pipelines/`` (``python pipelines/study.py …``); both read the packaged configs
+(:data:`taskcomplexity.cli.CONF_DIR`), so they run from any directory. ``main()`` refuses a bad override
+in one line before Hydra parses the command line, then runs the app; the work itself is the module's
+``run(cfg)`` (or a library function), which tests call directly.
+
+Importing this package configures the process, before any of its modules loads torch or NumPy:
+OpenMP threads that spin-wait after a parallel region would steal the cores from numba's kernels
+(2x slower RWG on 2 cores). The process is the entry point's to configure; ``import taskcomplexity``
+itself sets nothing.
+"""
+
+import os
+
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

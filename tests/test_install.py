@@ -1,0 +1,141 @@
+"""The package installed (not editable) into a fresh venv runs its entry points from a directory outside
+the repository: the configs ship as package data, and the console scripts find them.
+
+The fresh venv has no copy of the dependencies: a ``.pth`` line puts this interpreter's site-packages
+(torch, numba, PyBullet, …) on its path, so nothing is downloaded. A plain path line does not run the
+``.pth`` files found there, so the editable install of the checkout stays out of the fresh venv; a test
+checks that ``taskcomplexity`` is imported from the venv. The build is from a copy of the working tree's
+``pyproject.toml``, ``README.md`` and ``src/`` (what a fresh clone holds), so the repository is not written.
+
+Measured on the 2-core reference machine, idle: the module's CI tests take about 35 s (the install 5 s,
+the refused override 3 s, the study on the gym backend 21 s, of which 10 s are start-up and report); the
+``slow`` seven-task smoke study adds about 60 s (its numba kernels compile cold in a fresh install, 30 s).
+Under load (other test runs on both cores) the CI tests took 61 s.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import textwrap
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = ("taskcomplexity-rwg", "taskcomplexity-metrics", "taskcomplexity-sac", "taskcomplexity-verdict",
+           "taskcomplexity-study")
+
+STUDY = textwrap.dedent("""
+    name: mine
+    tasks:
+      - {id: cart, task: cartpole, label: "CartPole"}
+      - {id: pend, task: pendulum, label: "Pendulum"}
+    relations:
+      - {easier: cart, harder: pend, kind: swing-up}
+""")
+
+
+def _environment() -> dict[str, str]:
+    """This process's environment without what would point the run back at the checkout or its outputs."""
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "TASKCOMPLEXITY_OUTPUTS", "HYDRA_FULL_ERROR")}
+    env["PIP_DISABLE_PIP_VERSION_CHECK"] = "1"
+    return env
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory) -> Path:
+    """A fresh venv with the package installed from a copy of the working tree (``pip install --no-deps .``)."""
+    root = tmp_path_factory.mktemp("install")
+    clone = root / "clone"
+    clone.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy2(ROOT / name, clone / name)
+    shutil.copytree(ROOT / "src", clone / "src",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "*.nbi", "*.nbc"))
+    venv = root / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    python = venv / "bin" / "python"
+    site = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    (Path(site) / "dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    install = subprocess.run(
+        [str(python), "-m", "pip", "install", "--quiet", "--no-deps", "--ignore-installed", "--no-build-isolation",
+         "--no-index", "--no-cache-dir", str(clone)],
+        capture_output=True, text=True, env=_environment(), timeout=600)
+    assert install.returncode == 0, install.stderr[-3000:]
+    return venv
+
+
+@pytest.fixture
+def workdir(tmp_path) -> Path:
+    """An empty directory outside the repository to run in."""
+    work = tmp_path / "work"
+    work.mkdir()
+    assert not work.resolve().is_relative_to(ROOT.resolve())
+    return work
+
+
+def _run(venv: Path, workdir: Path, *args: str, timeout: int = 600) -> subprocess.CompletedProcess:
+    command = [str(venv / "bin" / args[0]), *args[1:]]
+    return subprocess.run(command, capture_output=True, text=True, cwd=workdir, env=_environment(), timeout=timeout)
+
+
+def test_the_installed_package_holds_its_configs_and_commands(venv, workdir):
+    assert all((venv / "bin" / name).is_file() for name in SCRIPTS)
+    probe = ("import sys, taskcomplexity, taskcomplexity.cli as cli; "
+             f"print(taskcomplexity.__file__); print(cli.CONF_DIR); print({str(ROOT / 'src')!r} in sys.path)")
+    result = _run(venv, workdir, "python", "-c", probe)
+    assert result.returncode == 0, result.stderr[-2000:]
+    module, conf, checkout_on_path = result.stdout.split()
+    assert Path(module).is_relative_to(venv) and Path(conf).is_relative_to(venv)  # not the checkout's src/
+    assert checkout_on_path == "False"
+    installed = Path(conf)
+    assert (installed / "config.yaml").is_file()
+    for group in ("arm", "reward", "task", "study", "experiment", "sac", "hydra/launcher"):
+        assert sorted(p.name for p in (installed / group).glob("*.yaml")) == sorted(
+            p.name for p in (ROOT / "src" / "taskcomplexity" / "conf" / group).glob("*.yaml")), group
+
+
+def test_an_unknown_option_is_refused_in_one_line_by_the_installed_command(venv, workdir):
+    result = _run(venv, workdir, "taskcomplexity-rwg", "arm=three_link", timeout=120)
+    assert result.returncode == 2
+    assert result.stderr.strip().splitlines() == [
+        "error: arm=three_link is not a known option (allowed: one_link_1m0, one_link_1m65, two_link, two_link_obstacle)"]
+    assert not any((workdir / "outputs").rglob("*"))  # nothing ran (the writability probe leaves an empty outputs/)
+
+
+def test_the_installed_study_command_runs_a_study_of_ones_own_from_any_directory(venv, workdir, tmp_path):
+    """Packaged task presets (cartpole, pendulum), a study file on the user's search path, every stage but SAC."""
+    studies = tmp_path / "studies"
+    (studies / "study").mkdir(parents=True)
+    (studies / "study" / "mine.yaml").write_text(STUDY)
+    result = _run(venv, workdir, "taskcomplexity-study", f"hydra.searchpath=[file://{studies}]", "study=mine",
+                  "experiment=smoke", "sac.enabled=false", "backend=gym")
+    assert result.returncode == 0, result.stderr[-3000:]
+    outputs = workdir / "outputs"  # the default paths.outputs, under the directory the command ran in
+    returns = sorted(outputs.glob("cache/rwg/*/returns.parquet"))
+    assert len(returns) == 2
+    assert all(len(pd.read_parquet(path)) == 10 * 4 for path in returns)  # experiment=smoke: N = 10 × M = 4
+    assert len(list(outputs.glob("cache/metrics/*/metrics.parquet"))) == 2
+    (verdict,) = outputs.glob("cache/verdict/*/verdict.parquet")
+    assert not pd.read_parquet(verdict).empty
+    report = outputs / "reports" / "mine-smoke"
+    assert (report / "index.html").is_file() and (report / "report.md").is_file()
+    assert f"Report: {report / 'index.html'}" in result.stdout
+    (config,) = outputs.glob("runs/*/*/.hydra/config.yaml")
+    assert "name: mine" in config.read_text()
+
+
+@pytest.mark.slow
+def test_the_installed_study_command_runs_the_seven_task_smoke_study(venv, workdir):
+    result = _run(venv, workdir, "taskcomplexity-study", "experiment=smoke", "sac.enabled=false")
+    assert result.returncode == 0, result.stderr[-3000:]
+    outputs = workdir / "outputs"
+    assert len(list(outputs.glob("cache/rwg/*/returns.parquet"))) == 7
+    assert len(list(outputs.glob("cache/metrics/*/metrics.parquet"))) == 7
+    assert (outputs / "reports" / "seven_tasks-smoke" / "index.html").is_file()
