@@ -87,8 +87,10 @@ def run_sac_stage(
 
 SEED_STEPS_PER_SECOND = 110.0
 """Training throughput of the protocol's runs, environment steps per second summed over the seeds of a
-run (five seeds trained together, one gradient update per step, evaluations included), on the 2-core
-development machine (``bench/bench_sac.py`` measures it on yours): the basis of the upfront estimate."""
+run (five seeds trained together, one gradient update per step, evaluations included) with a whole core:
+``bench/bench_sac.py`` measured 47 seed-steps/s at a CPU share of 0.42 on the busy 2-core development
+machine (2026-11-23), i.e. about 110 on a free core. The basis of the upfront estimate of `make paper`;
+the bench measures it on yours."""
 
 
 def training_plan(cache: Cache, runs) -> str:
