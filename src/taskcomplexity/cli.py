@@ -179,6 +179,7 @@ def one_line_errors(fn):
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        logging.captureWarnings(True)  # warnings go to the run log (conf/hydra/job_logging), not the console
         try:
             return fn(*args, **kwargs)
         except TaskComplexityError as err:

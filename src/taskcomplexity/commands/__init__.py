@@ -16,3 +16,6 @@ itself sets nothing.
 import os
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# torchrl logs through a colour console handler of its own, set up at its import from this variable:
+# its INFO lines (buffers, collectors) are not for the console; its warnings still are.
+os.environ.setdefault("RL_LOGGING_LEVEL", "WARNING")
