@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 import torch
@@ -37,6 +39,26 @@ def test_batched_forward_pass_equals_each_policy_on_its_own(network):
         # and the same policy alone, as the PyBullet reference runs it (BLAS may round differently per shape)
         alone = select_policy(batch, i).act(torch.from_numpy(x[i : i + 1, :7])).numpy()
         np.testing.assert_allclose(alone[0], actions[i, :7], rtol=0, atol=1e-12)
+
+
+def test_the_forward_pass_threads_belong_to_the_batch_and_end_with_it():
+    from taskcomplexity import policies as module
+
+    # no module-global mutable state (a shared pool used to live in one)
+    assert not [k for k, v in vars(module).items() if isinstance(v, list | dict | set) and not k.startswith("__")]
+    batch = sample_policies(NetworkSpec(), PriorSpec(), 9, 1, 0, np.arange(64))
+    x = torch.from_numpy(np.random.default_rng(0).normal(size=(64, 100, 9)))  # 6400 environments: split
+    before = set(threading.enumerate())
+    with batch:
+        split = batch.act(x).numpy()
+        started = [t for t in set(threading.enumerate()) - before if t.name.startswith("policy")]
+    for thread in started:
+        thread.join(timeout=10)
+        assert not thread.is_alive()
+    if module._workers() > 1:
+        assert started  # the work was split over the batch's threads
+    np.testing.assert_array_equal(batch.act(x).numpy(), split)  # after close: threads start again
+    batch.close()
 
 
 # -- the original PIC/POIC family (issue 14) ----------------------------------------------------------

@@ -1,7 +1,9 @@
 """The random policy family of RWG: MLPs whose weights are drawn from a prior, batched over policies.
 
 A batch of P policies is a list of per-layer tensors with a leading policy dimension, so one forward
-pass over all P policies and their environments costs one batched matmul per layer.
+pass over all P policies and their environments costs one batched matmul per layer. Kernels that run
+the policies themselves (the batched reaching backend's fused rollout) take them packed into one
+float64 row per policy (:meth:`PolicyBatch.packed`).
 """
 
 from __future__ import annotations
@@ -9,8 +11,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import weakref
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
@@ -141,6 +144,9 @@ class PriorSpec:
 class PolicyBatch:
     """P random MLP policies.
 
+    :meth:`act` splits large batches over threads of a pool the batch owns: :meth:`close` it (or use
+    the batch as a context manager) when done; a batch that is garbage collected shuts its pool down.
+
     Attributes
     ----------
     weights : list of Tensor (P, fan_in, fan_out)
@@ -157,6 +163,7 @@ class PolicyBatch:
     activation: str = "relu"
     input_bias: bool = False
     output: str = "tanh"
+    _threads: ThreadPoolExecutor | None = field(default=None, init=False, repr=False, compare=False)
 
     def unit_outputs(self, outputs: np.ndarray, box: bool) -> np.ndarray:
         """The outputs of :meth:`act` as a backend decodes them: in (−1, 1) for a Box action space.
@@ -171,6 +178,39 @@ class PolicyBatch:
 
     def __len__(self) -> int:
         return len(self.indices)
+
+    def __enter__(self) -> PolicyBatch:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Shut down the threads of :meth:`act` (started again if :meth:`act` is called later)."""
+        threads, self._threads = self._threads, None
+        if threads is not None:
+            threads.shutdown()
+
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The policies' parameters as one float64 row per policy, for kernels that run the MLPs.
+
+        Returns
+        -------
+        weights : ndarray (P, S) float64
+            Per layer, the weight as (fan_out, fan_in) row-major (``nn.Linear``'s layout), then its bias
+            (fan_out) when the network has biases.
+        layer_sizes : ndarray (L + 1,) int64
+            The first layer's fan_in (observation size, plus 1 with ``input_bias``), then each fan_out.
+        """
+        n_pol = len(self)
+        parts = []
+        for i, w in enumerate(self.weights):
+            parts.append(w.numpy().transpose(0, 2, 1).reshape(n_pol, -1))
+            if self.biases is not None:
+                parts.append(self.biases[i].numpy().reshape(n_pol, -1))
+        sizes = [self.weights[0].shape[1], *(w.shape[2] for w in self.weights)]
+        weights = np.ascontiguousarray(np.concatenate(parts, axis=1), dtype=np.float64)
+        return weights, np.asarray(sizes, dtype=np.int64)
 
     def act(self, observations: torch.Tensor) -> torch.Tensor:
         """Deterministic actions.
@@ -197,8 +237,15 @@ class PolicyBatch:
         if len(work) == 1:
             self._forward(x, out, *work[0])
         else:
-            list(_pool().map(lambda job: self._forward(x, out, *job), work))
+            list(self._pool().map(lambda job: self._forward(x, out, *job), work))
         return torch.from_numpy(out)
+
+    def _pool(self) -> ThreadPoolExecutor:
+        """Threads for the forward pass (NumPy's matmul releases the GIL), started on first use."""
+        if self._threads is None:
+            self._threads = ThreadPoolExecutor(_workers(), thread_name_prefix="policy")
+            weakref.finalize(self, self._threads.shutdown, wait=False)
+        return self._threads
 
     def _forward(self, x: np.ndarray, out: np.ndarray, start: int, stop: int, step: int) -> None:
         # NumPy's stacked matmul runs float64 batched products 2-3× faster than torch.bmm on this
@@ -219,18 +266,10 @@ class PolicyBatch:
 
 
 CACHE_ENVIRONMENTS = 2048  # environments whose activations are computed together (fits in L2)
-_POOL: list[ThreadPoolExecutor] = []
 
 
 def _workers() -> int:
     return max(1, min(os.cpu_count() or 1, torch.get_num_threads()))
-
-
-def _pool() -> ThreadPoolExecutor:
-    """Threads for the policy forward pass (NumPy's matmul releases the GIL)."""
-    if not _POOL:
-        _POOL.append(ThreadPoolExecutor(_workers(), thread_name_prefix="policy"))
-    return _POOL[0]
 
 
 def policy_parameters(

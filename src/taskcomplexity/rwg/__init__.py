@@ -218,19 +218,31 @@ def simulate_chunk(
 
 
 def _simulate_batched(
-    task, policies: PolicyBatch, joint_angles, target, contacts: str = "pybullet", progress: bool = False
+    task, policies: PolicyBatch, joint_angles, target, contacts: str = "pybullet", progress: bool = False,
+    *, fused: bool = True,
 ) -> ReturnChunk:
+    """Every episode of the chunk on the batched backend.
+
+    ``fused``: each policy's episodes run to their end in one kernel (forward pass and step per
+    environment, :meth:`BatchedReaching.rollout`); otherwise step by step, one batched forward pass
+    (:meth:`PolicyBatch.act`) and one :meth:`BatchedReaching.step` per environment step — the
+    reference the fused rollout is tested and benchmarked against.
+    """
     from taskcomplexity.tasks.batched import BatchedReaching
 
     n_pol, n_ep = joint_angles.shape[:2]
     env = BatchedReaching(task, n_pol * n_ep, contacts)
     obs = env.reset(torch.from_numpy(joint_angles.reshape(n_pol * n_ep, -1)), torch.from_numpy(target.reshape(-1, 2)))
-    with torch.no_grad():
-        for _ in range(task.max_steps):
-            if not env.active.any():
-                break
-            action = policies.act(obs.view(n_pol, n_ep, -1)).reshape(n_pol * n_ep, -1)
-            obs, _, _ = env.step(action)
+    if fused:
+        env.rollout(*policies.packed(), activation=policies.activation, output=policies.output,
+                    bias=policies.biases is not None, input_bias=policies.input_bias)
+    else:
+        with torch.no_grad(), policies:  # closing the batch ends its forward-pass threads
+            for _ in range(task.max_steps):
+                if not env.active.any():
+                    break
+                action = policies.act(obs.view(n_pol, n_ep, -1)).reshape(n_pol * n_ep, -1)
+                obs, _, _ = env.step(action)
     returns = env.returns.numpy().reshape(n_pol, n_ep).copy()
     steps = env.steps.numpy().reshape(n_pol, n_ep).copy()
     success = env.success.numpy().reshape(n_pol, n_ep).copy()
@@ -253,8 +265,7 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, p
             (
                 int(p),
                 int(e),
-                [w.numpy() for w in one.weights],
-                None if one.biases is None else [b.numpy() for b in one.biases],
+                one,
                 env.joint_angles[flat].numpy().copy(),
                 env.joint_velocities[flat].numpy().copy(),
                 env.target[flat].numpy().copy(),
@@ -279,12 +290,7 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, p
 
 def _continue_episode(env, job) -> tuple[float, int, bool]:
     """Finish one handed-over episode on the reference ``env`` from the state where it stopped."""
-    _, _, weights, biases, joint_angles, joint_velocities, target, max_steps = job
-    policy = PolicyBatch(
-        weights=[torch.from_numpy(w) for w in weights],
-        biases=None if biases is None else [torch.from_numpy(b) for b in biases],
-        indices=np.zeros(1, dtype=np.int64),
-    )
+    _, _, policy, joint_angles, joint_velocities, target, max_steps = job  # the whole policy: its activation too
     obs, _ = env.reset(options={"joint_angles": joint_angles, "joint_velocities": joint_velocities, "target": target})
     return _rollout(env, policy, obs, max_steps)
 

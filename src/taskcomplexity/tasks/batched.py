@@ -17,9 +17,10 @@ The obstacle task's forearm–block contacts are handled in one of two ways (``c
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
-from taskcomplexity.tasks import mechanics, step_kernel
+from taskcomplexity.tasks import mechanics, rollout_kernel, step_kernel
 from taskcomplexity.tasks.dynamics import ArmDynamics, contact_zone
 from taskcomplexity.tasks.spec import TaskSpec
 from taskcomplexity.tasks.urdf import read_arm_urdf, urdf_path
@@ -120,3 +121,36 @@ class BatchedReaching:
             self.task.arm.time_step, self.task.arm.substeps,
         )
         return self.observation, self.reward, self.done
+
+    def rollout(
+        self,
+        weights: np.ndarray,
+        layer_sizes: np.ndarray,
+        *,
+        activation: str = "relu",
+        output: str = "tanh",
+        bias: bool = False,
+        input_bias: bool = False,
+    ) -> None:
+        """Run every active environment's episode to its end, each under its own random MLP policy.
+
+        What repeated :meth:`step` calls with the policies' actions do, in one fused kernel
+        (:mod:`taskcomplexity.tasks.rollout_kernel`): environments that are done cost nothing, and
+        hand-overs leave the state :meth:`step` leaves.
+
+        Parameters
+        ----------
+        weights : ndarray (P, S)
+            P policies' packed parameters (:meth:`taskcomplexity.policies.PolicyBatch.packed`);
+            environment i follows policy i // (B / P).
+        layer_sizes : ndarray (L + 1,) int
+        activation, output, bias, input_bias
+            As in :class:`taskcomplexity.policies.NetworkSpec`.
+        """
+        if self.size % len(weights):
+            raise ValueError(f"{self.size} environments do not split evenly over {len(weights)} policies")
+        rollout_kernel.rollout(
+            self._dynamics, self._task, self._zone, self._state, weights, layer_sizes,
+            episodes=self.size // len(weights), max_steps=self.task.max_steps, time_step=self.task.arm.time_step,
+            substeps=self.task.arm.substeps, activation=activation, output=output, bias=bias, input_bias=input_bias,
+        )

@@ -24,7 +24,7 @@ from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_m
 from taskcomplexity.tasks.mechanics import BLOCK_FOOTPRINT, COLLISION_MARGIN, TWO_PI
 from taskcomplexity.tasks.spec import LINK_WIDTH, TaskSpec
 
-KERNEL_MODULES = ("step_kernel", "dynamics", "contact", "mechanics")
+KERNEL_MODULES = ("step_kernel", "rollout_kernel", "dynamics", "contact", "mechanics")
 
 
 def drop_stale_kernels(directory: Path | None = None) -> bool:
@@ -176,13 +176,98 @@ def _observe(p, q1, q2, qd1, radius, angle, obs):
     return np.sqrt(dx * dx + dy * dy), elbow_x, elbow_y, ex, ey
 
 
+ARM_VECTOR_SIZE = 13  # ArmDynamics.vector() of a 2-link arm; a 1-link arm's is padded with zeros
+
+
+def arm_vector(dynamics: np.ndarray) -> np.ndarray:
+    """:meth:`~taskcomplexity.tasks.dynamics.ArmDynamics.vector` padded to ARM_VECTOR_SIZE (what the kernels take)."""
+    out = np.zeros(ARM_VECTOR_SIZE)
+    out[: len(dynamics)] = dynamics
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _arm_tuple(d):
+    """The arm's parameters as a tuple: values, not memory, so that the compiler keeps them in registers
+    across the physics loop (from an array it must reload them after every store to the state arrays,
+    which keeps the loop from being vectorised: ~5× slower for the 1-link arm). Same arithmetic."""
+    return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11], d[12])
+
+
+@numba.njit(cache=True)
+def step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success, handoff,
+               contact, obs, reward, done, dt, substeps):
+    """One environment step of the n active environments ``index[:n]``, in place (the mechanics of one step).
+
+    The physics runs in lock-step over the n environments (:func:`~taskcomplexity.tasks.dynamics.integrate_block`);
+    each environment's arithmetic is its own, so its result does not depend on which others share the
+    block. Both :func:`step` and the fused RWG rollout (:mod:`taskcomplexity.tasks.rollout_kernel`) call
+    this one definition. ``reward[e]`` and ``done[e]`` are set for the stepped environments only.
+    """
+    two_links = p[DOF] == 2
+    obstacle = p[OBSTACLE] > 0
+    handover = zone[0] == 1.0
+    a1, u, t1 = np.empty(n), np.empty(n), np.empty(n)
+    a2, v, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
+    upper = np.zeros(n)
+    touched = np.zeros(n, dtype=np.bool_)
+    for j in range(n):
+        e = index[j]
+        a1[j], u[j] = q[e, 0], qd[e, 0]
+        t1[j] = min(max(action[e, 0], -1.0), 1.0) * p[SCALE1]
+        if two_links:
+            a2[j], v[j] = q[e, 1], qd[e, 1]
+            t2[j] = min(max(action[e, 1], -1.0), 1.0) * p[SCALE2]
+        if obstacle:
+            upper[j] = _upper_arm_clearance(p, a1[j])  # measured before the step
+    integrate_block(_arm_tuple(dynamics), inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
+    for j in range(n):
+        e = index[j]
+        reward[e], done[e] = 0.0, False
+        if handover and touched[j]:
+            # the forearm entered the block's contact zone: keep the state before the step and
+            # leave the episode to the PyBullet reference
+            handoff[e] = True
+            active[e] = False
+            continue  # its observation is left as it was: no policy acts on it any more
+        if touched[j]:
+            contact[e] = True
+        q[e, 0], qd[e, 0] = a1[j], u[j]
+        if two_links:
+            q[e, 1], qd[e, 1] = a2[j], v[j]
+        d, elbow_x, elbow_y, ex, ey = _observe(
+            p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], target[e, 0], target[e, 1], obs[e]
+        )
+        hit = d < p[THRESHOLD]
+        collision = False
+        if p[SPARSE] > 0:
+            r = (1.0 if hit else 0.0) - 1.0
+        else:
+            c1 = min(max(action[e, 0], -1.0), 1.0)
+            effort = c1 * c1
+            if two_links:
+                c2 = min(max(action[e, 1], -1.0), 1.0)
+                effort += c2 * c2
+            r = -(d * d) + -effort
+            if obstacle:
+                forearm = _forearm_clearance(p, elbow_x, elbow_y, ex, ey)
+                collision = upper[j] <= p[COLLIDE] or forearm <= p[COLLIDE]
+                r += -p[PENALTY] * (1.0 if collision else 0.0)
+                r += -p[WEIGHT] * (np.exp(-p[DECAY] * upper[j]) + np.exp(-p[DECAY] * forearm))
+        done[e] = hit or collision
+        reward[e] = r
+        returns[e] += r
+        steps[e] += 1
+        if hit:
+            success[e] = True
+        if done[e]:
+            active[e] = False
+
+
 @numba.njit(parallel=True, cache=True)
 def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, success, handoff, contact, obs, reward,
           done, dt, substeps):
     n_env = q.shape[0]
-    two_links = p[DOF] == 2
-    obstacle = p[OBSTACLE] > 0
-    handover = zone[0] == 1.0
     inv = inverse_mass_matrix(dynamics)
     for blk in numba.prange((n_env + BLOCK - 1) // BLOCK):
         lo = blk * BLOCK
@@ -194,62 +279,9 @@ def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, succ
             if active[e]:
                 index[n] = e
                 n += 1
-        if n == 0:
-            continue
-        a1, u, t1 = np.empty(n), np.empty(n), np.empty(n)
-        a2, v, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
-        upper = np.zeros(n)
-        touched = np.zeros(n, dtype=np.bool_)
-        for j in range(n):
-            e = index[j]
-            a1[j], u[j] = q[e, 0], qd[e, 0]
-            t1[j] = min(max(action[e, 0], -1.0), 1.0) * p[SCALE1]
-            if two_links:
-                a2[j], v[j] = q[e, 1], qd[e, 1]
-                t2[j] = min(max(action[e, 1], -1.0), 1.0) * p[SCALE2]
-            if obstacle:
-                upper[j] = _upper_arm_clearance(p, a1[j])  # measured before the step
-        integrate_block(dynamics, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
-        for j in range(n):
-            e = index[j]
-            if handover and touched[j]:
-                # the forearm entered the block's contact zone: keep the state before the step and
-                # leave the episode to the PyBullet reference
-                handoff[e] = True
-                active[e] = False
-                continue  # its observation is left as it was: no policy acts on it any more
-            if touched[j]:
-                contact[e] = True
-            q[e, 0], qd[e, 0] = a1[j], u[j]
-            if two_links:
-                q[e, 1], qd[e, 1] = a2[j], v[j]
-            d, elbow_x, elbow_y, ex, ey = _observe(
-                p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], target[e, 0], target[e, 1], obs[e]
-            )
-            hit = d < p[THRESHOLD]
-            collision = False
-            if p[SPARSE] > 0:
-                r = (1.0 if hit else 0.0) - 1.0
-            else:
-                c1 = min(max(action[e, 0], -1.0), 1.0)
-                effort = c1 * c1
-                if two_links:
-                    c2 = min(max(action[e, 1], -1.0), 1.0)
-                    effort += c2 * c2
-                r = -(d * d) + -effort
-                if obstacle:
-                    forearm = _forearm_clearance(p, elbow_x, elbow_y, ex, ey)
-                    collision = upper[j] <= p[COLLIDE] or forearm <= p[COLLIDE]
-                    r += -p[PENALTY] * (1.0 if collision else 0.0)
-                    r += -p[WEIGHT] * (np.exp(-p[DECAY] * upper[j]) + np.exp(-p[DECAY] * forearm))
-            done[e] = hit or collision
-            reward[e] = r
-            returns[e] += r
-            steps[e] += 1
-            if hit:
-                success[e] = True
-            if done[e]:
-                active[e] = False
+        if n > 0:
+            step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success,
+                       handoff, contact, obs, reward, done, dt, substeps)
 
 
 def step(
@@ -266,7 +298,7 @@ def step(
     Parameters
     ----------
     dynamics : ndarray
-        :meth:`taskcomplexity.tasks.dynamics.ArmDynamics.vector` of the arm.
+        :meth:`taskcomplexity.tasks.dynamics.ArmDynamics.vector` of the arm (padded inside).
     task : ndarray
         :func:`task_vector` of the task.
     zone : ndarray
@@ -283,7 +315,7 @@ def step(
         Clipped to [−1, 1] inside.
     """
     _step(
-        dynamics, task, zone, state["joint_angles"], state["joint_velocities"], state["target"], action,
+        arm_vector(dynamics), task, zone, state["joint_angles"], state["joint_velocities"], state["target"], action,
         state["active"], state["returns"], state["steps"], state["success"], state["handoff"], state["contact"],
         state["observation"], state["reward"], state["done"], float(time_step), int(substeps),
     )

@@ -1,0 +1,101 @@
+"""The fused RWG rollout is the step-by-step path (PolicyBatch.act, then BatchedReaching.step) in one kernel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
+from taskcomplexity.rwg import initial_states
+from taskcomplexity.tasks.batched import BatchedReaching
+from taskcomplexity.tasks.rollout_kernel import forward
+from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+
+NETWORKS = [
+    NetworkSpec(),  # the paper's: 32-32 ReLU, tanh output, no biases
+    NetworkSpec(hidden=(64,), bias=True, activation="tanh"),
+    NetworkSpec(hidden=(), output="linear", input_bias=True),  # linear policy: raw outputs, clipped by the step
+    NetworkSpec(hidden=(5, 3), activation="tanh", output="linear", bias=True, input_bias=True),
+]
+CASES = [(arm, reward, "pybullet") for arm, reward in STUDY_TASKS] + [("two_link_obstacle", "dense", "model")]
+POLICIES, EPISODES = 8, 24
+# The kernel's matrix products sum in another order than NumPy's BLAS, so an action that is not saturated
+# can differ in its last bits; over 50 steps the joint state then differs by ~1e-11 (measured: < 5e-11 in
+# returns over 4096 episodes of every case). An episode whose rounding (0.01 rad), threshold (0.05 m) or
+# contact decision falls within that noise would take another path: allowed once per case (not seen).
+RETURN_TOL = 1e-8
+STATE_TOL = 1e-6
+STRADDLES = 1
+
+
+def _run(task, policies, joint_angles, target, contacts, fused):
+    n = joint_angles.shape[0] * joint_angles.shape[1]
+    env = BatchedReaching(task, n, contacts)
+    obs = env.reset(torch.from_numpy(joint_angles.reshape(n, -1)), torch.from_numpy(target.reshape(n, 2)))
+    if fused:
+        env.rollout(*policies.packed(), activation=policies.activation, output=policies.output,
+                    bias=policies.biases is not None, input_bias=policies.input_bias)
+    else:
+        with policies:
+            for _ in range(task.max_steps):
+                action = policies.act(obs.view(len(policies), -1, obs.shape[1])).reshape(n, -1)
+                obs, _, _ = env.step(action)
+    return env
+
+
+@pytest.mark.parametrize("network", NETWORKS, ids=lambda n: f"{n.hidden}-{n.activation}-{n.output}")
+@pytest.mark.parametrize(("arm", "reward", "contacts"), CASES)
+def test_the_fused_rollout_gives_the_step_by_step_returns(arm, reward, contacts, network):
+    task = make_task(arm, reward)
+    policies = sample_policies(network, PriorSpec(), task.observation_size, task.action_size, 3, np.arange(POLICIES))
+    joint_angles, target = initial_states(task, 3, policies.indices, EPISODES)
+    old = _run(task, policies, joint_angles, target, contacts, fused=False)
+    new = _run(task, policies, joint_angles, target, contacts, fused=True)
+
+    differ = (np.abs(new.returns.numpy() - old.returns.numpy()) > RETURN_TOL) | (new.steps != old.steps).numpy()
+    assert differ.sum() <= STRADDLES, f"{differ.sum()} of {differ.size} episodes differ"
+    same = ~differ
+    for name in ("success", "handoff", "contact"):
+        np.testing.assert_array_equal(getattr(new, name).numpy()[same], getattr(old, name).numpy()[same], name)
+    # the state where every episode stopped (for a hand-over: where PyBullet continues it)
+    np.testing.assert_allclose(new.joint_angles.numpy()[same], old.joint_angles.numpy()[same], atol=STATE_TOL, rtol=0)
+    np.testing.assert_allclose(new.joint_velocities.numpy()[same], old.joint_velocities.numpy()[same],
+                               atol=STATE_TOL, rtol=0)
+    np.testing.assert_array_equal(new.active.numpy()[same], old.active.numpy()[same])
+    assert (old.steps.numpy() > 1).mean() > 0.5  # the episodes really ran
+    if contacts == "model":
+        assert new.contact.numpy().any()
+    elif task.arm.obstacle is not None:
+        assert new.handoff.numpy().any()
+
+
+@pytest.mark.parametrize("network", NETWORKS, ids=lambda n: f"{n.hidden}-{n.activation}-{n.output}")
+def test_the_kernels_forward_pass_is_the_policy_batchs(network):
+    obs_size, act_size = 10, 2
+    policies = sample_policies(network, PriorSpec(kind="uniform"), obs_size, act_size, 7, np.arange(3))
+    x = np.random.default_rng(0).normal(0.0, 3.0, (3, 37, obs_size))
+    expected = policies.act(torch.from_numpy(x)).numpy()
+    weights, layer_sizes = policies.packed()
+    assert layer_sizes.tolist() == [obs_size + network.input_bias, *network.hidden, act_size]
+    width = int(layer_sizes.max())
+    for p in range(3):
+        h, g = np.zeros((width, 40)), np.zeros((width, 40))  # wider than used: columns 37.. are ignored
+        h[:obs_size, :37] = x[p].T
+        if network.input_bias:
+            h[obs_size] = 1.0
+        out = forward(weights[p], layer_sizes, network.bias, network.activation == "relu", network.output == "tanh",
+                      h, g, 37)
+        # the same sums in another order: float64 rounding only
+        np.testing.assert_allclose(out[:act_size, :37].T, expected[p], rtol=1e-12, atol=1e-12)
+
+
+def test_a_rollout_refuses_policies_that_do_not_fit_the_environments():
+    task = make_task("two_link", "dense")
+    policies = sample_policies(NetworkSpec(), PriorSpec(), task.observation_size, task.action_size, 0, np.arange(3))
+    env = BatchedReaching(task, 10)
+    with pytest.raises(ValueError, match="do not split evenly over 3 policies"):
+        env.rollout(*policies.packed())
+    one_link = sample_policies(NetworkSpec(), PriorSpec(), 9, 1, 0, np.arange(2))
+    with pytest.raises(ValueError, match="do not fit observation size 10"):
+        env.rollout(*one_link.packed())
