@@ -38,11 +38,16 @@ RESIDUAL_THRESHOLD = 1e-7  # PyBullet's solverResidualThreshold (squared velocit
 LINK_FRICTION = 0.5  # PyBullet's default lateral friction of a URDF link without <contact>
 BLOCK_FRICTION = 1.0  # pybullet_data block.urdf's lateral friction
 # Bullet's solver stops after its first sweep when the forearm's (inert) contact with the ground plane is in
-# the same solve (see single_sweep). Measured in PyBullet episodes: the plane contact is present at 48 % of
-# the physics steps, independently of speed, depth and time; a sweep-1 exit follows at 86 % of those
-# where the block contact is new (no block contact in the previous physics step) and at 3.5 % of the others.
-P_SINGLE_FRESH = 0.415
-P_SINGLE_CONTINUING = 0.017
+# the same solve (see single_sweep). The rates are measured on PyBullet 3.2.7 by bench/calibrate_contacts.py
+# (`make calibrate-contacts`; tests/tasks/test_contact_calibration.py holds them within 3 standard errors):
+# in random-policy episodes of two_link_obstacle-dense (N = 300 × M = 5, seed 0) the plane contact is
+# present at 46–49 % of the steps where one sweep and convergence differ; a sweep-1 exit follows at 75 % of
+# those where the block contact is new (no overlap at the previous physics step) and at 3.8 % of the others,
+# never without the plane: 0.349 ± 0.010 (848 of 2 433 steps) and 0.019 ± 0.001 (353 of 18 367). The
+# earlier 0.415 (48 % × 86 %) could not be re-derived; the same measurement gives 0.41 ± 0.02 (48 %, 86 %)
+# only with the action's torque applied twice in its first physics step.
+P_SINGLE_FRESH = 0.349
+P_SINGLE_CONTINUING = 0.019
 
 # layout of the contact vector (see taskcomplexity.tasks.dynamics.contact_zone)
 MODE, OX, OY, X0, X1, ZONE_RADIUS, HALF_SIDE, HALF_WIDTH, Z_OVERLAP, ERP, SLOP, MU, ITERATIONS, RESIDUAL = range(14)
