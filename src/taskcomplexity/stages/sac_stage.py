@@ -80,7 +80,7 @@ def run_sac_stage(
         return {"label": f"{task.task_id} {variant} seeds={list(settings.seeds)}", "variant": variant}
 
     def cleanup() -> None:
-        shutil.rmtree(cache.root / STAGE / f".partial-{key}", ignore_errors=True)
+        shutil.rmtree(cache.scratch(STAGE, key), ignore_errors=True)
 
     return cache.get_or_compute(STAGE, key, write, config=identity, force=force, after=cleanup)
 
