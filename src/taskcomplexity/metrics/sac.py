@@ -34,7 +34,8 @@ import numpy as np
 import pandas as pd
 
 EVAL_RETURN = "eval/return_mean"
-CURVE_COLUMNS = ("task", "variant", "seed", "env_step", EVAL_RETURN)
+READ_COLUMNS = ("task", "variant", "seed", "env_step", EVAL_RETURN)
+"""The columns of the SAC stage's curves (:data:`taskcomplexity.rl.CURVE_COLUMNS`) that this module reads."""
 SEED_COLUMNS = (
     "task",
     "variant",
@@ -54,12 +55,12 @@ def evaluations(curves: pd.DataFrame) -> pd.DataFrame:
     Raises
     ------
     ValueError
-        If a column of :data:`CURVE_COLUMNS` is missing.
+        If a column of :data:`READ_COLUMNS` is missing.
     """
-    missing = [c for c in CURVE_COLUMNS if c not in curves.columns]
+    missing = [c for c in READ_COLUMNS if c not in curves.columns]
     if missing:
-        raise ValueError(f"curves must have columns {list(CURVE_COLUMNS)}, missing {missing}")
-    table = curves.loc[curves[EVAL_RETURN].notna(), list(CURVE_COLUMNS)]
+        raise ValueError(f"curves must have columns {list(READ_COLUMNS)}, missing {missing}")
+    table = curves.loc[curves[EVAL_RETURN].notna(), list(READ_COLUMNS)]
     return table.sort_values(["task", "variant", "seed", "env_step"], kind="stable").reset_index(drop=True)
 
 
@@ -71,7 +72,7 @@ def normalisation_bounds(
     Parameters
     ----------
     curves : pandas.DataFrame
-        SAC curves (columns of :data:`CURVE_COLUMNS`).
+        SAC curves (columns of :data:`READ_COLUMNS`).
     rwg_bounds : mapping of task id to (r_min, r_max), optional
         The task's random-policy worst policy mean and best episode return (sum of rewards).
 
@@ -126,7 +127,7 @@ def seed_summary(
     Parameters
     ----------
     curves : pandas.DataFrame
-        SAC curves (columns of :data:`CURVE_COLUMNS`).
+        SAC curves (columns of :data:`READ_COLUMNS`).
     rwg_bounds : mapping of task id to (r_min, r_max), optional
         Random-policy bounds for the normalisation (see the module docstring).
     final_evaluations : int, default 5
