@@ -105,3 +105,12 @@ def test_summary_takes_the_confidence_recorded_by_the_bootstrap():
 def test_summary_refuses_unknown_metrics():
     with pytest.raises(ValueError, match="point must name columns of draws \\(pic\\), got \\['poic'\\]"):
         summarise_bootstrap(pd.DataFrame({"pic": [1.0, 2.0]}), {"poic": 1.0})
+
+
+def test_bootstrap_equals_the_naive_loop_when_the_span_is_too_narrow_for_linear_binning():
+    # B / (max - min) overflows: every path bins by searchsorted instead.
+    low = 1e-300
+    returns = np.array([[low, low, np.nextafter(low, 1.0)], [np.nextafter(low, 1.0), low, low], [low, low, low]])
+    fast = bootstrap(returns, seed=3, resamples=12, bins=10**5)
+    naive = naive_bootstrap(returns, seed=3, resamples=12, bins=10**5)
+    np.testing.assert_allclose(fast["pic"], naive["pic"], rtol=0, atol=SAME_ESTIMATE)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from taskcomplexity.metrics import bin_edges, plugin_entropy, policy_bin_counts
-from taskcomplexity.metrics.histogram import bin_indices
+from taskcomplexity.metrics.histogram import bin_indices, histogram_terms
 
 finite = st.floats(-1e6, 1e6, allow_nan=False, allow_subnormal=False)
 
@@ -72,3 +72,20 @@ def test_plugin_entropy_of_a_uniform_histogram_is_ln_of_its_support(size):
 def test_plugin_entropy_of_a_known_histogram():
     p = np.array([0.5, 0.25, 0.25])
     assert plugin_entropy([2, 1, 1, 0]) == pytest.approx(-np.sum(p * np.log(p)), abs=1e-15)
+
+
+@pytest.mark.parametrize("decimals", [None, 1])
+def test_histogram_terms_equal_the_sparse_histograms(decimals):
+    # One parallel pass without sorting gives the same pooled counts, occupied bins and Σ c ln c
+    # (up to the order of summation of each policy's terms: a few ulps).
+    rng = np.random.default_rng(4)
+    returns = rng.normal(size=(37, 50)) * rng.uniform(0.1, 3.0, size=(37, 1))
+    if decimals is not None:
+        returns = np.round(returns, decimals)
+    edges = bin_edges(returns.min(), returns.max(), 113)
+    returns[0, :3] = edges[[0, 50, -1]]  # values exactly on edges, the last bin closed
+    counts = policy_bin_counts(returns, edges)
+    terms = histogram_terms(returns, edges)
+    np.testing.assert_array_equal(terms.pooled, counts.pooled_counts())
+    np.testing.assert_array_equal(terms.occupied, counts.occupied_bins())
+    np.testing.assert_allclose(terms.policy_entropies(), counts.policy_entropies(), rtol=0, atol=1e-14)

@@ -11,8 +11,9 @@ rebuilding anything per resample:
 * Its bin edges depend only on the smallest and largest return of the policies it contains, so
   resamples are grouped by their (min, max) pair — a handful of distinct pairs over 1000 resamples,
   because the extremes of the whole sample are in 63 % of resamples — and the sparse per-policy
-  histograms are built once per group. Pooled histograms of a whole group of resamples are one
-  sparse–dense matrix product (counts are integers, so it is exact).
+  histograms are built once per group, stored bin by bin. The pooled histograms of the group's
+  resamples are formed bin by bin, 16 resamples per pass, by a numba kernel
+  (:mod:`~taskcomplexity.metrics.resampled_histograms`); counts are integers, so they are exact.
 * For POIC the expensive per-policy log-mean-exp ℓₙ(λ) does not depend on S*; a resample with
   reference S*_b only shifts ``ln pₙ`` by ``(mₙ - S*_b)/λ``. The mutual-information curves of all
   resamples are then matrix products of the multiplicities with per-policy N × (temperatures)
@@ -34,9 +35,10 @@ from taskcomplexity.metrics._validation import (
     check_seed,
     validate_returns,
 )
-from taskcomplexity.metrics.histogram import bin_edges, histogram_rows, sum_xlogx
+from taskcomplexity.metrics.histogram import bin_edges, bin_scale, histogram_rows, sum_xlogx
 from taskcomplexity.metrics.pic import DEFAULT_BINS
 from taskcomplexity.metrics.poic import PolicyLogMeans, SearchResult, search_poic
+from taskcomplexity.metrics.resampled_histograms import SortedReturns, pooled_xlogx, sorted_row_xlogx
 from taskcomplexity.metrics.temperature import (
     DEFAULT_GRID_POINTS,
     DEFAULT_REFINE_PEAKS,
@@ -44,9 +46,6 @@ from taskcomplexity.metrics.temperature import (
     DEFAULT_TEMPERATURE_RANGE,
     TemperatureLattice,
 )
-
-_RESAMPLES_PER_PRODUCT = 128
-"""Resamples whose pooled histograms are formed in one sparse product (bounds the memory used)."""
 
 BOOTSTRAP_COLUMNS = (
     "resample",
@@ -244,24 +243,28 @@ def _bootstrap_pic(
     high = np.where(present, ordered[:, -1:].T, -np.inf).max(axis=1)
     extremes, group = np.unique(np.column_stack((low, high)), axis=0, return_inverse=True)
     group = group.ravel()
-    # Pooled counts never exceed N·M, so 32-bit integer products are exact when N·M < 2**31.
-    count_dtype = np.int32 if total < 2**31 else np.int64
 
     h_r = np.zeros(weights.shape[0])
     h_r_given_theta = np.zeros(weights.shape[0])
+    everything = None  # all returns sorted, once, when a group needs them
     for label, (group_low, group_high) in enumerate(extremes):
         rows = np.flatnonzero(group == label)
         if group_low < group_high:
             # Only policies drawn by some resample of the group lie inside its edges.
             used = np.flatnonzero(present[rows].any(axis=0))
-            counts = histogram_rows(ordered[used], bin_edges(group_low, group_high, bins), rows_sorted=True)
             group_weights = weights[np.ix_(rows, used)]
-            h_r_given_theta[rows] = group_weights @ counts.policy_entropies() / n_policies
-            by_bin = counts.bin_major(count_dtype)
-            for start in range(0, rows.size, _RESAMPLES_PER_PRODUCT):
-                block = slice(start, start + _RESAMPLES_PER_PRODUCT)
-                pooled = by_bin @ np.ascontiguousarray(group_weights[block].T, dtype=count_dtype)
-                h_r[rows[block]] = np.maximum(np.log(total) - sum_xlogx(pooled, axis=0) / total, 0.0)
+            edges = bin_edges(group_low, group_high, bins)
+            if np.isfinite(bin_scale(edges)):
+                if everything is None:
+                    everything = SortedReturns.of(returns)
+                xlogx = pooled_xlogx(everything, edges, weights[rows])
+                entropies = np.maximum(np.log(n_episodes) - sorted_row_xlogx(ordered, used, edges) / n_episodes, 0.0)
+            else:  # a span too narrow for B bins: the sparse-matrix path, which bins by searchsorted
+                counts = histogram_rows(ordered[used], edges, rows_sorted=True)
+                entropies = counts.policy_entropies()
+                xlogx = sum_xlogx(counts.bin_major() @ group_weights.T.astype(np.int64), axis=0)
+            h_r_given_theta[rows] = group_weights @ entropies / n_policies
+            h_r[rows] = np.maximum(np.log(total) - xlogx / total, 0.0)
         advance(rows.size)
     return h_r, h_r_given_theta
 

@@ -16,7 +16,7 @@ import pandas as pd
 import sklearn.feature_selection
 
 from taskcomplexity.metrics._validation import check_bins, check_int, check_seed, validate_returns
-from taskcomplexity.metrics.histogram import bin_edges, plugin_entropy, policy_bin_counts
+from taskcomplexity.metrics.histogram import bin_edges, histogram_terms, plugin_entropy
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
 from taskcomplexity.metrics.poic import poic
 from taskcomplexity.metrics.temperature import (
@@ -270,10 +270,9 @@ def pic_miller_madow(returns: object, *, bins: int = DEFAULT_BINS) -> PICResult:
     if low == high:
         return PICResult(pic=0.0, h_r=0.0, h_r_given_theta=0.0, bins=bins)
     n_policies, n_episodes = returns.shape
-    counts = policy_bin_counts(returns, bin_edges(low, high, bins))
-    pooled = counts.pooled_counts()
-    h_r = plugin_entropy(pooled) + float(np.count_nonzero(pooled) - 1) / (2 * n_policies * n_episodes)
-    h_n = counts.policy_entropies() + (counts.occupied_bins() - 1) / (2 * n_episodes)
+    terms = histogram_terms(returns, bin_edges(low, high, bins))
+    h_r = plugin_entropy(terms.pooled) + float(np.count_nonzero(terms.pooled) - 1) / (2 * n_policies * n_episodes)
+    h_n = terms.policy_entropies() + (terms.occupied - 1) / (2 * n_episodes)
     h_r_given_theta = float(h_n.mean())
     return PICResult(pic=h_r - h_r_given_theta, h_r=h_r, h_r_given_theta=h_r_given_theta, bins=bins)
 

@@ -3,13 +3,17 @@
 This is the one place that decides which bin a return falls in, so that the point estimate of PIC,
 its bootstrap, the Miller–Madow correction and the reference implementation agree bin for bin.
 The bins follow :func:`numpy.histogram` with explicit edges: bin ``b`` is the half-open interval
-``[edges[b], edges[b + 1])`` except the last one, which is closed.
+``[edges[b], edges[b + 1])`` except the last one, which is closed. Every path bins a value with
+:func:`bin_of` (numba), and the per-policy entropy terms of PIC come from one parallel pass over the
+return matrix (:func:`histogram_terms`), without sorting.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.sparse
 
@@ -45,7 +49,7 @@ def bin_indices(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
     Equivalent to ``numpy.searchsorted(edges, values, side="right") - 1`` with the last bin closed,
     but computed in linear time from the bin width; the few values that floating-point rounding
-    puts in a neighbouring bin are detected against ``edges`` and corrected.
+    puts in a neighbouring bin are detected against ``edges`` and corrected (:func:`bin_of`).
 
     Parameters
     ----------
@@ -59,19 +63,129 @@ def bin_indices(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     numpy.ndarray, same shape as ``values``, intp
         Bin indices in ``0 … B - 1``.
     """
+    values = np.asarray(values, dtype=np.float64)
+    edges = np.ascontiguousarray(edges, dtype=np.float64)
     n_bins = edges.size - 1
-    low, high = edges[0], edges[-1]
-    with np.errstate(over="ignore"):  # a span so narrow that B / span overflows is handled next
-        scale = n_bins / (high - low)
+    scale = bin_scale(edges)
     if not np.isfinite(scale):
         return np.minimum(np.searchsorted(edges, values, side="right") - 1, n_bins - 1)
-    index = ((values - low) * scale).astype(np.intp)
-    np.clip(index, 0, n_bins - 1, out=index)
-    wrong = (values < edges[index]) | ((values >= edges[index + 1]) & (index != n_bins - 1))
-    if wrong.any():
-        exact = np.searchsorted(edges, values[wrong], side="right") - 1
-        index[wrong] = np.minimum(exact, n_bins - 1)
+    index = np.empty(values.size, dtype=np.intp)
+    _bin_values(np.ascontiguousarray(values).ravel(), scale, edges, index)
+    return index.reshape(values.shape)
+
+
+def bin_scale(edges: np.ndarray) -> float:
+    """Bins per unit of return, ``B / (high - low)``; inf when the span is too narrow for it."""
+    with np.errstate(over="ignore", divide="ignore"):  # handled by the callers' searchsorted path
+        return float(np.float64(edges.size - 1) / (edges[-1] - edges[0]))
+
+
+@numba.njit(cache=True, inline="always")
+def bin_of(value, scale, edges):
+    """Bin of one value: the linear guess ``⌊(value - low)·scale⌋``, moved to the largest ``b <= B - 1``
+    with ``edges[b] <= value`` (a step or two at most, where rounding misplaced the guess)."""
+    last = edges.size - 2
+    index = min(max(int((value - edges[0]) * scale), 0), last)
+    while index > 0 and value < edges[index]:
+        index -= 1
+    while index < last and value >= edges[index + 1]:
+        index += 1
     return index
+
+
+@numba.njit(cache=True, parallel=True)
+def _bin_values(values, scale, edges, out):
+    for i in numba.prange(values.size):
+        out[i] = bin_of(values[i], scale, edges)
+
+
+@dataclass(frozen=True, eq=False)
+class HistogramTerms:
+    """What the plug-in entropies of PIC need from the per-policy histograms on shared edges.
+
+    Attributes
+    ----------
+    pooled : numpy.ndarray, shape (B,), int64
+        Counts of all N·M returns in each bin.
+    xlogx : numpy.ndarray, shape (N,)
+        ``Σ_b c ln c`` over the bins of each policy's histogram (counts c).
+    occupied : numpy.ndarray, shape (N,), int64
+        Non-empty bins of each policy.
+    n_episodes : int
+        Episodes per policy M.
+    """
+
+    pooled: np.ndarray
+    xlogx: np.ndarray
+    occupied: np.ndarray
+    n_episodes: int
+
+    def policy_entropies(self) -> np.ndarray:
+        """Plug-in entropy Hₙ in nats of each policy's histogram, shape (N,)."""
+        # A policy in a single bin: ln M - M ln M / M, 0 up to rounding.
+        return np.maximum(np.log(self.n_episodes) - self.xlogx / self.n_episodes, 0.0)
+
+
+def histogram_terms(returns: np.ndarray, edges: np.ndarray) -> HistogramTerms:
+    """Histogram every policy's returns on the same edges and keep the entropy terms.
+
+    Parameters
+    ----------
+    returns : numpy.ndarray, shape (N, M), float64
+        Validated returns inside ``[edges[0], edges[-1]]``.
+    edges : numpy.ndarray, shape (B + 1,)
+        Non-decreasing bin edges, for example from :func:`bin_edges`.
+
+    Returns
+    -------
+    HistogramTerms
+        Equal to the terms of :func:`policy_bin_counts` up to the order of summation of each
+        policy's ``c ln c``: one parallel pass counts each row in a per-thread table of B counts
+        (no sort), then reads and clears the bins the row touched.
+    """
+    edges = np.ascontiguousarray(edges, dtype=np.float64)
+    returns = np.ascontiguousarray(returns, dtype=np.float64)
+    scale = bin_scale(edges)
+    if not np.isfinite(scale):
+        counts = histogram_rows(returns, edges)
+        per_run = counts.counts * np.log(counts.counts)
+        return HistogramTerms(counts.pooled_counts(), np.add.reduceat(per_run, counts.indptr[:-1]),
+                              counts.occupied_bins(), returns.shape[1])
+    n_policies = returns.shape[0]
+    xlogx, occupied = np.empty(n_policies), np.empty(n_policies, dtype=np.int64)
+    # One table per thread of the pool: numba.get_thread_id() is below NUMBA_NUM_THREADS.
+    pooled = np.zeros((numba.config.NUMBA_NUM_THREADS, edges.size - 1), dtype=np.int64)
+    _histogram_terms(returns, scale, edges, xlogx, occupied, pooled)
+    return HistogramTerms(pooled.sum(axis=0), xlogx, occupied, returns.shape[1])
+
+
+_ROWS_PER_TASK = 64
+
+
+@numba.njit(cache=True, parallel=True)
+def _histogram_terms(returns, scale, edges, xlogx, occupied, pooled):
+    n_policies, n_episodes = returns.shape
+    n_bins = edges.size - 1
+    counts = np.zeros((pooled.shape[0], n_bins), dtype=np.int32)
+    n_tasks = (n_policies + _ROWS_PER_TASK - 1) // _ROWS_PER_TASK
+    for task in numba.prange(n_tasks):
+        thread = numba.get_thread_id()
+        count, pool = counts[thread], pooled[thread]
+        index = np.empty(n_episodes, dtype=np.int64)
+        for n in range(task * _ROWS_PER_TASK, min(n_policies, (task + 1) * _ROWS_PER_TASK)):
+            for e in range(n_episodes):
+                b = bin_of(returns[n, e], scale, edges)
+                index[e] = b
+                count[b] += 1
+                pool[b] += 1
+            total, bins = 0.0, 0
+            for e in range(n_episodes):
+                c = count[index[e]]
+                if c > 0:
+                    total += c * math.log(c)
+                    bins += 1
+                    count[index[e]] = 0
+            xlogx[n], occupied[n] = total, bins
 
 
 def plugin_entropy(counts: np.ndarray) -> float:

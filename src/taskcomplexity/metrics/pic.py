@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from taskcomplexity.metrics._validation import check_bins, validate_returns
-from taskcomplexity.metrics.histogram import bin_edges, plugin_entropy, policy_bin_counts
+from taskcomplexity.metrics.histogram import bin_edges, histogram_terms, plugin_entropy
 
 DEFAULT_BINS = 100_000
 """Number of equal-width bins of the published estimator."""
@@ -57,9 +57,8 @@ def pic(returns: object, *, bins: int = DEFAULT_BINS) -> PICResult:
 
     Notes
     -----
-    The work is vectorised: bin indices are computed once for all N·M returns, sorted within each
-    row, and runs of equal indices give every policy's sparse histogram (see
-    :func:`~taskcomplexity.metrics.histogram.policy_bin_counts`). The result equals
+    One parallel pass bins all N·M returns and counts each policy's histogram (see
+    :func:`~taskcomplexity.metrics.histogram.histogram_terms`). The result equals
     :func:`pic_reference` up to floating-point rounding.
     """
     returns = validate_returns(returns)
@@ -67,9 +66,9 @@ def pic(returns: object, *, bins: int = DEFAULT_BINS) -> PICResult:
     low, high = float(returns.min()), float(returns.max())
     if low == high:
         return PICResult(pic=0.0, h_r=0.0, h_r_given_theta=0.0, bins=bins)
-    counts = policy_bin_counts(returns, bin_edges(low, high, bins))
-    h_r = plugin_entropy(counts.pooled_counts())
-    h_r_given_theta = float(counts.policy_entropies().mean())
+    terms = histogram_terms(returns, bin_edges(low, high, bins))
+    h_r = plugin_entropy(terms.pooled)
+    h_r_given_theta = float(terms.policy_entropies().mean())
     return PICResult(pic=h_r - h_r_given_theta, h_r=h_r, h_r_given_theta=h_r_given_theta, bins=bins)
 
 
