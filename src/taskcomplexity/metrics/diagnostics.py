@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-import sklearn.feature_selection
 
 from taskcomplexity.metrics._validation import check_bins, check_int, check_seed, validate_returns
 from taskcomplexity.metrics.histogram import bin_edges, histogram_terms, plugin_entropy
+from taskcomplexity.metrics.knn import mutual_info_classif_1d
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
 from taskcomplexity.metrics.poic import poic
 from taskcomplexity.metrics.temperature import (
@@ -288,7 +288,8 @@ def pic_knn(
     """Nearest-neighbour estimate of I(Θ; R) between the policy label and the return.
 
     Uses the estimator for a discrete and a continuous variable of Ross (2014) as implemented by
-    :func:`sklearn.feature_selection.mutual_info_classif` (``discrete_features=False``).
+    :func:`sklearn.feature_selection.mutual_info_classif` (``discrete_features=False``), computed
+    by sorting (:func:`~taskcomplexity.metrics.knn.mutual_info_classif_1d`, the same estimate).
 
     Parameters
     ----------
@@ -333,14 +334,9 @@ def pic_knn(
     episodes = np.sort(rng.choice(n_episodes, size=m, replace=False))
     sample = returns[np.ix_(policies, episodes)]
     labels = np.repeat(np.arange(n), m)
-    mi = sklearn.feature_selection.mutual_info_classif(
-        sample.reshape(-1, 1),
-        labels,
-        discrete_features=False,
-        n_neighbors=n_neighbors,
-        random_state=int(rng.integers(2**31 - 1)),
-    )
-    return KNNMIResult(mi=float(mi[0]), policies=n, episodes=m, n_neighbors=n_neighbors)
+    mi = mutual_info_classif_1d(sample.ravel(), labels, n_neighbors=n_neighbors,
+                                random_state=int(rng.integers(2**31 - 1)))
+    return KNNMIResult(mi=mi, policies=n, episodes=m, n_neighbors=n_neighbors)
 
 
 def _non_empty(values: Sequence[int], name: str) -> list:
