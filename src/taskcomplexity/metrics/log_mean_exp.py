@@ -8,30 +8,31 @@ run in parallel (``numba.prange``).
 
 Exact to rounding, with two shortcuts whose error is bounded
 ------------------------------------------------------------
-The kernel returns ``ln Σ̂ - ln M`` where Σ̂ is the sum up to a relative error of a few 1e-14 at
-most (so ℓ to an absolute few 1e-14), from three sources:
+The kernel returns ``ln Σ̂ - ln M`` where Σ̂ is the sum up to a relative error of at most about
+1.3e-13 in the worst case (so ℓ to an absolute 1.3e-13; typical errors are a few 1e-16), from:
 
 1. **Truncation of the tail.** With the row sorted, the sum stops at the first value with
    ``x/λ < -c``, ``c = ln M + 37``: the dropped terms are fewer than M, each below ``e^-c``, and
    the sum is at least 1, so they change it by less than ``M e^-c = e^-37 ≈ 8.5e-17`` relative.
-   (This replaces the old floor of exponents at -700, whose terms e^-700 were as invisible.)
+   (This replaces the old floor of exponents at -700: terms below e^-700 were as invisible, and
+   no exponent below -c ever reaches ``exp``.)
 2. **Taylor blocks.** The sorted row is cut into aligned blocks of 8, 16, …, 512 consecutive
    values. A block with centre ``c_b``, half-width ``h_b`` (half its span) and weight ``W_b`` keeps
-   the normalised power sums ``Q_k = Σ w (x - c_b)^k / h_b^k`` (|u| <= 1 inside the block), so that
-   ``Σ_block w e^{x/λ} = e^{c_b/λ} Σ_k Q_k z^k / k!`` with ``z = h_b/λ``. The kernel uses the
+   the normalised power sums ``Q_k = Σ w u^k``, ``u = (x - c_b)/h_b ∈ [-1, 1]``, so that
+   ``Σ_block w e^{x/λ} = e^{c_b/λ} Σ_k (Q_k/k!) z^k`` with ``z = h_b/λ``. The kernel uses the
    largest aligned block with ``z <= ρ = 1`` and the series up to ``k = K = 18``. With
    ``y = (x - c_b)/λ ∈ [-z, z]``:
 
-   * the block sum is at least ``W_b e^{c_b/λ} e^{-ρ}``;
+   * the block sum is at least ``W_b e^{c_b/λ} e^{-ρ}``, and every series term is at most
+     ``W_b z^k/k!`` in size (their sum at most ``W_b e^ρ``): absolute errors of order ``ε W_b e^ρ``
+     are amplified by at most ``e^{2ρ} ≈ 7.39`` relative to the block sum;
    * the Lagrange remainder of each term is at most ``e^ρ ρ^{K+1}/(K+1)!``, so the truncated
      series is off by at most ``e^{2ρ} ρ^{K+1}/(K+1)! = e²/19! ≈ 6.1e-17`` relative;
-   * every series term is bounded by ``W_b z^k/k!`` in size and the terms alternate in sign at
-     worst, so absolute rounding errors of order ε W_b e^ρ are amplified by at most ``e^{2ρ} ≈ 7.4``
-     relative to the block sum. Those errors are: the power sums (each element's ``u^k`` by k
-     products after two roundings, summed in sub-sums of 8: at most ``(K + 2 + 7 + 512/8) ε``),
-     the scaling by ``1/k!`` (ε) and Horner's rule (``2K ε``). In total at most
-     ``7.4 · (18 + 2 + 7 + 64 + 1 + 36) ε ≈ 950 ε ≈ 1.1e-13`` relative for a 512-block, and
-     ``7.4 · 65 ε ≈ 5e-14`` for blocks of 8 — a worst-case bound; typical errors are ~1e-16.
+   * rounding, in units of ε = 2^-53 relative to ``W_b e^ρ``: each ``u^k`` (two roundings in u,
+     k products: ``3K = 54``), the power sums (each of 8 lanes adds at most 64 leaves, then the
+     lanes pairwise: ``67``), ``1/k!`` (2) and the polynomial (even and odd halves by Horner's rule
+     in z², fused multiply-adds where the CPU has them: at most ``2K = 36``): 159 ε, so at most
+     ``7.39 · 159 ε ≈ 1.3e-13`` relative for a 512-block (``7.39 · 99 ε ≈ 8e-14`` for 8 values).
 3. **Plain rounding** of ``exp``, of ``x/λ`` (also in the numpy reference) and of the summation of
    positive terms: leaves of 8 values are summed first, then the leaves, as numpy's pairwise sum
    does. Block sums are positive, so their relative errors do not grow when they are added.
@@ -47,7 +48,8 @@ import numba
 import numpy as np
 
 LEAF = 8
-"""Values per leaf block (the direct path sums leaves of this size first)."""
+"""Values per leaf block (the direct path sums leaves of this size first); the power sums use one
+lane per value of a leaf, written out for 8."""
 LEVELS = 7
 """Block sizes LEAF · 2^l, l = 0 … LEVELS - 1 (8 … 512)."""
 TAYLOR_ORDER = 18
@@ -102,7 +104,7 @@ def log_mean_exp(
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, fastmath={"contract"})
 def _log_mean_exp(values, weights, indptr, temperatures, cut, log_m, max_blocks, inverse_factorials, out):
     n_rows = indptr.size - 1
     n_tasks = (n_rows + _POLICIES_PER_TASK - 1) // _POLICIES_PER_TASK
@@ -111,7 +113,7 @@ def _log_mean_exp(values, weights, indptr, temperatures, cut, log_m, max_blocks,
         half = np.empty(max_blocks)
         coef = np.empty((max_blocks, TAYLOR_ORDER + 1))
         built = np.empty(max_blocks, dtype=np.bool_)
-        lanes = np.empty((TAYLOR_ORDER + 3, LEAF))  # the sums, then u and the running power
+        lanes = np.empty((TAYLOR_ORDER + 1, LEAF))
         offsets = np.empty(LEVELS + 1, dtype=np.int64)
         for row in range(task * _POLICIES_PER_TASK, min(n_rows, (task + 1) * _POLICIES_PER_TASK)):
             start, stop = indptr[row], indptr[row + 1]
@@ -140,31 +142,44 @@ def _block_bounds(x, offsets, centre, half, built):
     built[: offsets[LEVELS]] = False
 
 
+@numba.njit(cache=True, inline="always")
+def _u(x, i, stop, c, h):
+    """Normalised value of element i of a block (0 past its end)."""
+    return (x[i] - c) / h if i < stop and h > 0.0 else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _w(w, i, stop):
+    """Weight of element i of a block (0 past its end)."""
+    return (w[i] if w.size else 1.0) if i < stop else 0.0
+
+
 @numba.njit(cache=True)
 def _build_block(x, w, first, stop, c, h, inverse_factorials, lanes, coef):
     """``Q_k / k!`` of the values ``x[first:stop]`` about ``c``, in units of ``h`` (module docstring).
 
-    Values are taken LEAF at a time, one per lane; each lane keeps its own running power and its
-    own sums, and the lanes are added pairwise at the end.
+    The values are taken LEAF = 8 at a time, one per lane: each lane keeps its running power in a
+    register and its own sums in ``lanes``; the lanes are added pairwise at the end.
     """
     lanes[:] = 0.0
-    u = lanes[TAYLOR_ORDER + 1]
-    power = lanes[TAYLOR_ORDER + 2]
-    for leaf in range(first, stop, LEAF):
-        for j in range(LEAF):
-            inside = leaf + j < stop
-            u[j] = (x[leaf + j] - c) / h if inside and h > 0.0 else 0.0
-            power[j] = (w[leaf + j] if w.size else 1.0) if inside else 0.0
+    for i in range(first, stop, LEAF):
+        u0, u1 = _u(x, i, stop, c, h), _u(x, i + 1, stop, c, h)
+        u2, u3 = _u(x, i + 2, stop, c, h), _u(x, i + 3, stop, c, h)
+        u4, u5 = _u(x, i + 4, stop, c, h), _u(x, i + 5, stop, c, h)
+        u6, u7 = _u(x, i + 6, stop, c, h), _u(x, i + 7, stop, c, h)
+        p0, p1, p2, p3 = _w(w, i, stop), _w(w, i + 1, stop), _w(w, i + 2, stop), _w(w, i + 3, stop)
+        p4, p5, p6, p7 = _w(w, i + 4, stop), _w(w, i + 5, stop), _w(w, i + 6, stop), _w(w, i + 7, stop)
         for k in range(TAYLOR_ORDER + 1):
-            for j in range(LEAF):
-                lanes[k, j] += power[j]
-                power[j] *= u[j]
+            a = lanes[k]
+            a[0], a[1], a[2], a[3] = a[0] + p0, a[1] + p1, a[2] + p2, a[3] + p3
+            a[4], a[5], a[6], a[7] = a[4] + p4, a[5] + p5, a[6] + p6, a[7] + p7
+            p0, p1, p2, p3, p4, p5, p6, p7 = p0 * u0, p1 * u1, p2 * u2, p3 * u3, p4 * u4, p5 * u5, p6 * u6, p7 * u7
     for k in range(TAYLOR_ORDER + 1):
-        s = lanes[k]
-        coef[k] = (((s[0] + s[1]) + (s[2] + s[3])) + ((s[4] + s[5]) + (s[6] + s[7]))) * inverse_factorials[k]
+        a = lanes[k]
+        coef[k] = (((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]))) * inverse_factorials[k]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", fastmath={"contract"})
 def _row_sum(x, w, temperature, cut, offsets, centre, half, coef, built, inverse_factorials, lanes):
     """Σ w e^{x/λ} of one sorted row (see the module docstring); builds the blocks it uses."""
     length = x.size
@@ -185,11 +200,16 @@ def _row_sum(x, w, temperature, cut, offsets, centre, half, coef, built, inverse
             if not built[b]:
                 _build_block(x, w, i, min(i + size, length), centre[b], half[b], inverse_factorials, lanes, coef[b])
                 built[b] = True
+            # Σ a_k z^k as its even and odd halves in z² (two independent chains of Horner's rule).
             z = half[b] / temperature
             a = coef[b]
-            poly = a[TAYLOR_ORDER]
-            for k in range(TAYLOR_ORDER - 1, -1, -1):
-                poly = poly * z + a[k]
+            z2 = z * z
+            even = a[TAYLOR_ORDER]
+            odd = a[TAYLOR_ORDER - 1]
+            for k in range(TAYLOR_ORDER - 2, 0, -2):
+                even = even * z2 + a[k]
+                odd = odd * z2 + a[k - 1]
+            poly = (even * z2 + a[0]) + odd * z
             total += math.exp(centre[b] / temperature) * poly
             i += size
         else:
