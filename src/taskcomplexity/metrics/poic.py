@@ -18,8 +18,10 @@ bootstrap resample share one definition and one implementation (:func:`search_po
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import pandas as pd
 import scipy.special
@@ -175,29 +177,13 @@ def optimality_curves(
     n_policies, n_temperatures = log_means.shape
     shape = (weights.shape[0], n_temperatures)
     curves = OptimalityCurves(np.empty(shape), np.empty(shape), np.empty(shape))
-    # Per policy and temperature: p, 1 - p and h(p) side by side, so that one matrix product
-    # with the multiplicities gives all three population sums.
+    # Per policy and temperature: p, 1 - p and h(p) side by side (_policy_terms), so that one matrix
+    # product with the multiplicities gives all three population sums.
     per_policy = np.empty((n_policies, 3, n_temperatures))
-    p, q, h = per_policy[:, 0], per_policy[:, 1], per_policy[:, 2]
     values, group = np.unique(s_star, return_inverse=True)
     for label, reference in enumerate(values):
         rows = np.flatnonzero(group.ravel() == label)
-        log_p = log_means + (row_max - reference)[:, None] / temperatures[None, :]
-        # pₙ <= 1: the upper clip removes rounding excess and keeps policies absent from a
-        # population (weight 0, possibly mₙ > S*) finite. The lower clip raises pₙ < e^-700
-        # (1e-304) to e^-700, which moves MI by less than 1e-300 nats and keeps subnormal
-        # numbers, slow in exp and in matrix products, out of the computation.
-        np.clip(log_p, _LOG_P_FLOOR, 0.0, out=log_p)
-        np.exp(log_p, out=p)
-        np.expm1(log_p, out=q)
-        np.negative(q, out=q)
-        # h = -p ln p - q ln q, with the exact ln p and 0 ln 0 = 0 for q = 0 (p = 1).
-        np.multiply(p, log_p, out=h)
-        q_log_q = np.log(np.maximum(q, _TINY))
-        q_log_q *= q
-        h += q_log_q
-        np.negative(h, out=h)
-
+        _policy_terms(log_means, row_max, temperatures, float(reference), per_policy)
         w = weights[rows]
         sums = (w @ per_policy.reshape(n_policies, -1)) / w.sum(axis=1, keepdims=True)
         p_bar, q_bar, h_given = np.split(sums, 3, axis=1)
@@ -206,6 +192,28 @@ def optimality_curves(
         curves.h_o_given_theta[rows] = h_given
         curves.mi[rows] = h_o - h_given
     return curves
+
+
+@numba.njit(cache=True, parallel=True)
+def _policy_terms(log_means, row_max, temperatures, reference, out):
+    """``out[n] = (pₙ, 1 - pₙ, h(pₙ))`` at every temperature for the reference return S*.
+
+    ``ln pₙ = ℓₙ + (mₙ - S*)/λ``, clipped to ``[-700, 0]``: pₙ <= 1 removes rounding excess and keeps
+    policies absent from a population (weight 0, possibly mₙ > S*) finite; raising pₙ < e^-700
+    (1e-304) to e^-700 moves MI by less than 1e-300 nats and keeps subnormal numbers, slow in exp
+    and in matrix products, out of the computation. ``1 - p = -expm1(ln p)`` keeps its precision
+    near p = 1, and ``h = -p ln p - q ln q`` uses the exact ln p with ``0 ln 0 = 0`` for q = 0.
+    """
+    n_policies, n_temperatures = log_means.shape
+    for n in numba.prange(n_policies):
+        shift = row_max[n] - reference
+        for c in range(n_temperatures):
+            log_p = min(max(log_means[n, c] + shift / temperatures[c], _LOG_P_FLOOR), 0.0)
+            p = math.exp(log_p)
+            q = -math.expm1(log_p)
+            out[n, 0, c] = p
+            out[n, 1, c] = q
+            out[n, 2, c] = -(p * log_p + math.log(max(q, _TINY)) * q)
 
 
 @dataclass(frozen=True, eq=False)
