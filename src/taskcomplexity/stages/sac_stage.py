@@ -168,7 +168,7 @@ def study_sac_curves(
         runs.append((entry, task, budgeted))
     for task_id, reason in skipped.items():
         log.warning("SAC skipped for %s: %s", task_id, reason)
-    if not cached_only:
+    if runs and not cached_only:
         log.info("%-26s %s", "sac", training_plan(cache, runs))
     frames, missing = [], []
     for entry, task, budgeted in runs:
