@@ -15,6 +15,7 @@ from taskcomplexity.metrics import (
     summarise_bootstrap,
 )
 from taskcomplexity.metrics.bootstrap import BOOTSTRAP_COLUMNS
+from taskcomplexity.metrics.poic import PolicyLogMeans
 
 # The fast path sums policies weighted by their multiplicity instead of over repeated rows,
 # which changes only the summation order: estimates agree to ~1e-15, 1e-9 leaves ample room.
@@ -114,3 +115,10 @@ def test_bootstrap_equals_the_naive_loop_when_the_span_is_too_narrow_for_linear_
     fast = bootstrap(returns, seed=3, resamples=12, bins=10**5)
     naive = naive_bootstrap(returns, seed=3, resamples=12, bins=10**5)
     np.testing.assert_allclose(fast["pic"], naive["pic"], rtol=0, atol=SAME_ESTIMATE)
+
+
+def test_a_log_means_shared_with_the_point_estimate_changes_nothing(continuous_returns):
+    source = PolicyLogMeans(continuous_returns)
+    poic(continuous_returns, log_means=source)  # fills the cache with the point estimate's lattice
+    shared = bootstrap(continuous_returns, seed=4, resamples=15, bins=40, log_means=source)
+    pd.testing.assert_frame_equal(shared, bootstrap(continuous_returns, seed=4, resamples=15, bins=40))

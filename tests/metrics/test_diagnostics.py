@@ -16,6 +16,7 @@ from taskcomplexity.metrics import (
     plugin_entropy,
     summarise_null,
 )
+from taskcomplexity.metrics.diagnostics import null_pic
 
 
 def test_observed_pic_of_iid_returns_lies_within_its_permutation_null():
@@ -129,3 +130,15 @@ def test_subsample_sweep_defaults_and_limits(continuous_returns):
     assert sorted(set(sweep["episodes"])) == [2, 4, 8]
     with pytest.raises(ValueError, match="policies must be integers between 2 and 12, got \\[13\\]"):
         pic_subsample_sweep(continuous_returns, seed=0, policies=[13])
+
+
+def test_null_pic_is_the_pic_column_of_the_permutation_null(continuous_returns):
+    # Computed afresh (nothing remembered for seed 31) and reused after permutation_null: both are
+    # the PIC of the same permutations.
+    fresh = null_pic(continuous_returns, seed=31, repeats=4, bins=40)
+    null = permutation_null(continuous_returns, seed=31, repeats=4, bins=40, grid_points=20, refine_points=2)
+    np.testing.assert_array_equal(fresh, null["pic"])
+    np.testing.assert_array_equal(null_pic(continuous_returns, seed=31, repeats=4, bins=40), null["pic"])
+    changed = continuous_returns.copy()
+    changed[0, 0] += 1.0  # other content: not served from memory
+    assert not np.array_equal(null_pic(changed, seed=31, repeats=4, bins=40), fresh)

@@ -138,3 +138,11 @@ def test_equal_returns_carry_no_information():
     assert (found.poic, found.h_o, found.h_o_given_theta) == (0.0, 0.0, 0.0)
     assert found.temperature == 1e-4  # a flat curve: the lowest temperature wins the tie
     assert found.at_boundary
+
+
+def test_a_shared_log_means_changes_nothing_and_must_match_the_returns(continuous_returns):
+    source = PolicyLogMeans(continuous_returns)
+    assert poic(continuous_returns, log_means=source) == poic(continuous_returns)
+    assert poic(continuous_returns, log_means=source) == poic(continuous_returns)  # now from its cache
+    with pytest.raises(ValueError, match="log_means must be PolicyLogMeans\\(returns\\)"):
+        poic(continuous_returns + 1.0, log_means=source)

@@ -37,7 +37,7 @@ from taskcomplexity.metrics._validation import (
 )
 from taskcomplexity.metrics.histogram import bin_edges, bin_scale, histogram_rows, sum_xlogx
 from taskcomplexity.metrics.pic import DEFAULT_BINS
-from taskcomplexity.metrics.poic import PolicyLogMeans, SearchResult, search_poic
+from taskcomplexity.metrics.poic import PolicyLogMeans, SearchResult, search_poic, shared_log_means
 from taskcomplexity.metrics.resampled_histograms import SortedReturns, pooled_xlogx, sorted_row_xlogx
 from taskcomplexity.metrics.temperature import (
     DEFAULT_GRID_POINTS,
@@ -112,6 +112,7 @@ def bootstrap(
     optimal_return: float | None = None,
     confidence: float = 0.95,
     progress: bool = False,
+    log_means: PolicyLogMeans | None = None,
 ) -> pd.DataFrame:
     """Bootstrap distribution of PIC and POIC over resampled policies.
 
@@ -132,6 +133,10 @@ def bootstrap(
         Level of the percentile interval; stored in ``attrs`` for :func:`summarise_bootstrap`.
     progress : bool, default False
         Show a tqdm progress bar.
+    log_means : PolicyLogMeans, optional
+        ``PolicyLogMeans(returns)`` shared with the point estimate
+        (:func:`~taskcomplexity.metrics.poic.poic`), so that the temperatures it evaluated are not
+        evaluated again.
 
     Returns
     -------
@@ -153,7 +158,7 @@ def bootstrap(
     bar = _progress_bar(2 * resamples, progress)
     try:
         h_r, h_r_given_theta = _bootstrap_pic(returns, weights, bins, bar.update)
-        found = _bootstrap_poic(returns, weights, lattice, optimal_return)
+        found = _bootstrap_poic(shared_log_means(returns, log_means), weights, lattice, optimal_return)
         bar.update(resamples)
     finally:
         bar.close()
@@ -270,10 +275,9 @@ def _bootstrap_pic(
 
 
 def _bootstrap_poic(
-    returns: np.ndarray, weights: np.ndarray, lattice: TemperatureLattice, optimal_return: float | None
+    source: PolicyLogMeans, weights: np.ndarray, lattice: TemperatureLattice, optimal_return: float | None
 ) -> SearchResult:
     """POIC search of every resample."""
-    source = PolicyLogMeans(returns)
     s_star = np.where(weights > 0, source.row_max, -np.inf).max(axis=1)
     if optimal_return is not None:
         s_star = np.maximum(s_star, optimal_return)

@@ -8,6 +8,7 @@ is not histogram-based (nearest-neighbour MI between a discrete and a continuous
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -94,6 +95,7 @@ def permutation_null(
     bins = check_bins(bins)
     TemperatureLattice.from_options(temperature_range, grid_points, refine_points, refine_peaks)
     rng = np.random.default_rng(check_seed(seed))
+    key = _null_key(returns, seed, repeats, bins)
     rows = []
     for repeat in range(repeats):
         shuffled = rng.permutation(returns.ravel()).reshape(returns.shape)
@@ -116,7 +118,45 @@ def permutation_null(
                 "temperature": found.temperature,
             }
         )
+    _remember_null_pic(key, np.array([row["pic"] for row in rows]))
     return pd.DataFrame(rows)
+
+
+def null_pic(returns: object, *, seed: int, repeats: int = 10, bins: int = DEFAULT_BINS) -> np.ndarray:
+    """The ``pic`` column of :func:`permutation_null` (same arguments, same permutations), shape (repeats,).
+
+    The permutations dominate the cost, so the values :func:`permutation_null` found for the same
+    returns (compared by content), seed, repeats and bins are reused when still remembered.
+    """
+    returns = validate_returns(returns)
+    seed = check_seed(seed)
+    repeats = check_int(repeats, "repeats", minimum=1)
+    bins = check_bins(bins)
+    key = _null_key(returns, seed, repeats, bins)
+    if key in _NULL_PIC:
+        return _NULL_PIC[key].copy()
+    rng = np.random.default_rng(seed)
+    draws = np.array([pic(rng.permutation(returns.ravel()).reshape(returns.shape), bins=bins).pic
+                      for _ in range(repeats)])
+    _remember_null_pic(key, draws)
+    return draws.copy()
+
+
+_NULL_PIC: dict[tuple, np.ndarray] = {}
+"""Recent null PIC draws by :func:`_null_key`: a few floats each, the last _NULL_PIC_KEPT kept."""
+_NULL_PIC_KEPT = 16
+
+
+def _null_key(returns: np.ndarray, seed: int, repeats: int, bins: int) -> tuple:
+    digest = hashlib.blake2b(np.ascontiguousarray(returns), digest_size=32).hexdigest()
+    return digest, returns.shape, int(seed), int(repeats), int(bins)
+
+
+def _remember_null_pic(key: tuple, draws: np.ndarray) -> None:
+    _NULL_PIC.pop(key, None)
+    _NULL_PIC[key] = draws
+    while len(_NULL_PIC) > _NULL_PIC_KEPT:
+        del _NULL_PIC[next(iter(_NULL_PIC))]
 
 
 def summarise_null(null: pd.DataFrame, observed: Mapping[str, float]) -> pd.DataFrame:

@@ -127,6 +127,11 @@ class PolicyLogMeans:
         """Number of policies N."""
         return self.row_max.size
 
+    @property
+    def n_episodes(self) -> int:
+        """Number of episodes per policy M."""
+        return self._n_episodes
+
     def evaluate(self, temperatures: np.ndarray) -> np.ndarray:
         """ℓₙ(λ) for every policy and temperature, shape (N, T), in [-ln M, 0]."""
         return log_mean_exp(self._values, self._weights, self._indptr, self._n_episodes,
@@ -289,6 +294,18 @@ def search_poic(
     )
 
 
+def shared_log_means(returns: np.ndarray, log_means: PolicyLogMeans | None) -> PolicyLogMeans:
+    """``log_means`` after checking that it belongs to ``returns``, or a new ``PolicyLogMeans(returns)``."""
+    if log_means is None:
+        return PolicyLogMeans(returns)
+    if not isinstance(log_means, PolicyLogMeans) or not (
+        log_means.n_policies == returns.shape[0] and log_means.n_episodes == returns.shape[1]
+        and np.array_equal(log_means.row_max, returns.max(axis=1))
+    ):
+        raise ValueError("log_means must be PolicyLogMeans(returns) of the same returns")
+    return log_means
+
+
 def reference_return(returns: np.ndarray, optimal_return: float | None) -> float:
     """S*: the best return in ``returns``, or ``optimal_return`` when that is higher."""
     best = float(returns.max())
@@ -305,6 +322,7 @@ def poic(
     refine_points: int = DEFAULT_REFINE_POINTS,
     refine_peaks: int = DEFAULT_REFINE_PEAKS,
     optimal_return: float | None = None,
+    log_means: PolicyLogMeans | None = None,
 ) -> POICResult:
     """Policy-Optimal Information Capacity with a deterministic temperature search.
 
@@ -322,6 +340,9 @@ def poic(
         Number of coarse local maxima whose brackets are refined, highest first.
     optimal_return : float, optional
         A known optimal return; S* becomes ``max(optimal_return, max S)``.
+    log_means : PolicyLogMeans, optional
+        ``PolicyLogMeans(returns)`` made earlier: the ℓₙ(λ) it has cached are reused and those
+        computed now stay cached (for example for the bootstrap of the same returns).
 
     Returns
     -------
@@ -339,7 +360,8 @@ def poic(
     returns = validate_returns(returns)
     lattice = TemperatureLattice.from_options(temperature_range, grid_points, refine_points, refine_peaks)
     s_star = reference_return(returns, optimal_return)
-    found = search_poic(PolicyLogMeans(returns), lattice, np.ones((1, returns.shape[0])), np.array([s_star]))
+    source = shared_log_means(returns, log_means)
+    found = search_poic(source, lattice, np.ones((1, returns.shape[0])), np.array([s_star]))
     return POICResult(
         poic=float(found.poic[0]),
         temperature=float(found.temperature[0]),

@@ -21,9 +21,9 @@ import pandas as pd
 
 from taskcomplexity.metrics._validation import validate_returns
 from taskcomplexity.metrics.bootstrap import bootstrap
-from taskcomplexity.metrics.diagnostics import KNNMIResult, pic_knn, pic_miller_madow
+from taskcomplexity.metrics.diagnostics import KNNMIResult, null_pic, pic_knn, pic_miller_madow
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
-from taskcomplexity.metrics.poic import POICResult, poic
+from taskcomplexity.metrics.poic import POICResult, PolicyLogMeans, poic
 from taskcomplexity.metrics.statistics import ScoreSummary, random_sampling_score
 from taskcomplexity.metrics.temperature import DEFAULT_TEMPERATURE_RANGE
 
@@ -102,8 +102,14 @@ class Sample:
         return pic(self.returns, bins=self.estimation.bins)
 
     @cached_property
+    def log_means(self) -> PolicyLogMeans:
+        """Per-policy ℓₙ(λ), shared by the POIC point estimate and its bootstrap."""
+        return PolicyLogMeans(self.returns)
+
+    @cached_property
     def poic(self) -> POICResult:
-        return poic(self.returns, temperature_range=tuple(self.estimation.temperature_range))
+        return poic(self.returns, temperature_range=tuple(self.estimation.temperature_range),
+                    log_means=self.log_means)
 
     @cached_property
     def score(self) -> ScoreSummary:
@@ -123,17 +129,17 @@ class Sample:
     @cached_property
     def null_pic(self) -> np.ndarray:
         """Histogram PIC of ``null_repeats`` permutations of the returns across policies, shape (repeats,), nats."""
-        rng = np.random.default_rng(self.seed("null"))
-        flat, shape = self.returns.ravel(), self.returns.shape
-        return np.array([pic(rng.permutation(flat).reshape(shape), bins=self.estimation.bins).pic
-                         for _ in range(self.estimation.null_repeats)])
+        # The same permutations as permutation_null with this seed: draws it computed are reused.
+        return null_pic(self.returns, seed=self.seed("null"), repeats=self.estimation.null_repeats,
+                        bins=self.estimation.bins)
 
     @cached_property
     def bootstrap(self) -> pd.DataFrame:
         """Bootstrap draws of PIC and POIC (:func:`~taskcomplexity.metrics.bootstrap.bootstrap`)."""
         e = self.estimation
         return bootstrap(self.returns, seed=e.bootstrap_seed, resamples=e.resamples, bins=e.bins,
-                         temperature_range=tuple(e.temperature_range), progress=self.progress)
+                         temperature_range=tuple(e.temperature_range), progress=self.progress,
+                         log_means=self.log_means)
 
     def subsample(self, policies: np.ndarray, *, batch: int | None = None) -> Sample:
         """The sample of the rows ``policies`` (e.g. a batch), with the same settings."""
