@@ -70,7 +70,7 @@ def bin_indices(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     if not np.isfinite(scale):
         return np.minimum(np.searchsorted(edges, values, side="right") - 1, n_bins - 1)
     index = np.empty(values.size, dtype=np.intp)
-    _bin_values(np.ascontiguousarray(values).ravel(), scale, edges, index)
+    _bin_values(np.ascontiguousarray(values).ravel(), scale, bin_slack(edges), edges, index)
     return index.reshape(values.shape)
 
 
@@ -80,12 +80,30 @@ def bin_scale(edges: np.ndarray) -> float:
         return float(np.float64(edges.size - 1) / (edges[-1] - edges[0]))
 
 
+def bin_slack(edges: np.ndarray) -> float:
+    """Distance in bins from an edge beyond which :func:`bin_of` needs no look at the edges.
+
+    ``t = (value - low)·scale`` is within 4 ε·B bins of the exact position, and each of
+    numpy.linspace's edges within about 3 ε·(B + |low|·scale) bins of its exact place. A value
+    whose t lies farther than 16 ε·(B + (|low| + |high|)·scale) from every integer is therefore
+    inside bin ⌊t⌋ of the given edges. (Values that close to an edge are rare: they take the
+    careful path.)
+    """
+    scale = bin_scale(edges)
+    return float(16 * np.finfo(np.float64).eps * (edges.size - 1 + (abs(edges[0]) + abs(edges[-1])) * scale))
+
+
 @numba.njit(cache=True, inline="always")
-def bin_of(value, scale, edges):
-    """Bin of one value: the linear guess ``⌊(value - low)·scale⌋``, moved to the largest ``b <= B - 1``
-    with ``edges[b] <= value`` (a step or two at most, where rounding misplaced the guess)."""
+def bin_of(value, scale, slack, edges):
+    """Bin of one value: ``⌊(value - low)·scale⌋`` when that is more than ``slack`` (:func:`bin_slack`)
+    inside a bin; otherwise that guess moved to the largest ``b <= B - 1`` with ``edges[b] <= value``
+    (a step or two at most, where rounding misplaced it)."""
     last = edges.size - 2
-    index = min(max(int((value - edges[0]) * scale), 0), last)
+    position = (value - edges[0]) * scale
+    index = int(position)
+    if 0 <= index <= last and slack < position - index < 1.0 - slack:
+        return index
+    index = min(max(index, 0), last)
     while index > 0 and value < edges[index]:
         index -= 1
     while index < last and value >= edges[index + 1]:
@@ -94,9 +112,9 @@ def bin_of(value, scale, edges):
 
 
 @numba.njit(cache=True, parallel=True)
-def _bin_values(values, scale, edges, out):
+def _bin_values(values, scale, slack, edges, out):
     for i in numba.prange(values.size):
-        out[i] = bin_of(values[i], scale, edges)
+        out[i] = bin_of(values[i], scale, slack, edges)
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,7 +173,7 @@ def histogram_terms(returns: np.ndarray, edges: np.ndarray) -> HistogramTerms:
     xlogx, occupied = np.empty(n_policies), np.empty(n_policies, dtype=np.int64)
     # One table per thread of the pool: numba.get_thread_id() is below NUMBA_NUM_THREADS.
     pooled = np.zeros((numba.config.NUMBA_NUM_THREADS, edges.size - 1), dtype=np.int64)
-    _histogram_terms(returns, scale, edges, xlogx, occupied, pooled)
+    _histogram_terms(returns, scale, bin_slack(edges), edges, xlogx, occupied, pooled)
     return HistogramTerms(pooled.sum(axis=0), xlogx, occupied, returns.shape[1])
 
 
@@ -163,7 +181,7 @@ _ROWS_PER_TASK = 64
 
 
 @numba.njit(cache=True, parallel=True)
-def _histogram_terms(returns, scale, edges, xlogx, occupied, pooled):
+def _histogram_terms(returns, scale, slack, edges, xlogx, occupied, pooled):
     n_policies, n_episodes = returns.shape
     n_bins = edges.size - 1
     counts = np.zeros((pooled.shape[0], n_bins), dtype=np.int32)
@@ -174,7 +192,7 @@ def _histogram_terms(returns, scale, edges, xlogx, occupied, pooled):
         index = np.empty(n_episodes, dtype=np.int64)
         for n in range(task * _ROWS_PER_TASK, min(n_policies, (task + 1) * _ROWS_PER_TASK)):
             for e in range(n_episodes):
-                b = bin_of(returns[n, e], scale, edges)
+                b = bin_of(returns[n, e], scale, slack, edges)
                 index[e] = b
                 count[b] += 1
                 pool[b] += 1

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from taskcomplexity.metrics.histogram import bin_of, bin_scale
+from taskcomplexity.metrics.histogram import bin_of, bin_scale, bin_slack
 
 RESAMPLES_PER_BLOCK = 64
 """Resamples whose pooled counts one sweep over the sorted returns forms."""
@@ -115,7 +115,7 @@ def sorted_row_xlogx(ordered: np.ndarray, rows: np.ndarray, edges: np.ndarray) -
     edges = np.ascontiguousarray(edges, dtype=np.float64)
     out = np.empty(len(rows))
     _sorted_row_xlogx(np.ascontiguousarray(ordered, dtype=np.float64), np.asarray(rows, dtype=np.int64),
-                      bin_scale(edges), edges, _XLOGX, out)
+                      bin_scale(edges), bin_slack(edges), edges, _XLOGX, out)
     return out
 
 
@@ -152,11 +152,11 @@ def _bin_starts(values, edges, tasks, out):
 
 
 @numba.njit(cache=True, parallel=True)
-def _sorted_row_xlogx(ordered, rows, scale, edges, table, out):
+def _sorted_row_xlogx(ordered, rows, scale, slack, edges, table, out):
     for k in numba.prange(rows.size):
         total, run, previous = 0.0, 0.0, -1
         for value in ordered[rows[k]]:
-            b = bin_of(value, scale, edges)
+            b = bin_of(value, scale, slack, edges)
             if b != previous:
                 total += _xlogx(run, table)
                 run, previous = 0.0, b
