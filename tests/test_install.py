@@ -7,10 +7,10 @@ The fresh venv has no copy of the dependencies: a ``.pth`` line puts this interp
 checks that ``taskcomplexity`` is imported from the venv. The build is from a copy of the working tree's
 ``pyproject.toml``, ``README.md`` and ``src/`` (what a fresh clone holds), so the repository is not written.
 
-Measured on the 2-core reference machine, idle: the module's CI tests take about 35 s (the install 5 s,
-the refused override 3 s, the study on the gym backend 21 s, of which 10 s are start-up and report); the
-``slow`` seven-task smoke study adds about 60 s (its numba kernels compile cold in a fresh install, 30 s).
-Under load (other test runs on both cores) the CI tests took 61 s.
+Measured on the 2-core development machine: the CI tests take 20 s of CPU (the install 5 s, the refused
+override 3 s, the RWG run 6 s) and 42 s of wall time with both cores busy. The studies are ``slow``:
+every numba kernel they reach compiles cold in a fresh install (the metrics stage alone 20–40 s), so the
+study of two gym tasks takes 50–110 s and the seven-task smoke study 60–200 s, depending on the load.
 """
 
 from __future__ import annotations
@@ -29,6 +29,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = ("taskcomplexity-rwg", "taskcomplexity-metrics", "taskcomplexity-sac", "taskcomplexity-verdict",
            "taskcomplexity-study")
+
+PRESET = textwrap.dedent("""
+    # a researcher's own preset on the search path, over a packaged one
+    defaults:
+      - pendulum
+      - _self_
+    max_steps: 20
+""")
 
 STUDY = textwrap.dedent("""
     name: mine
@@ -109,6 +117,23 @@ def test_an_unknown_option_is_refused_in_one_line_by_the_installed_command(venv,
     assert not any((workdir / "outputs").rglob("*"))  # nothing ran (the writability probe leaves an empty outputs/)
 
 
+def test_the_installed_rwg_command_runs_a_preset_of_ones_own_from_any_directory(venv, workdir, tmp_path):
+    """A task preset on the user's search path over a packaged preset (pendulum), tiny N × M, the gym backend."""
+    lab = tmp_path / "lab"
+    (lab / "task").mkdir(parents=True)
+    (lab / "task" / "short_pendulum.yaml").write_text(PRESET)
+    result = _run(venv, workdir, "taskcomplexity-rwg", f"hydra.searchpath=[file://{lab}]", "task=short_pendulum",
+                  "rwg.policies=4", "rwg.episodes=2", "backend=gym", timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]
+    outputs = workdir / "outputs"  # the default paths.outputs, under the directory the command ran in
+    (returns,) = outputs.glob("cache/rwg/*/returns.parquet")
+    table = pd.read_parquet(returns)
+    assert len(table) == 4 * 2 and (table["steps"] == 20).all()  # Pendulum-v1 runs to the preset's max_steps
+    (log,) = outputs.glob("runs/*/*/rwg.log")
+    assert "computed returns Pendulum-v1" in log.read_text()
+
+
+@pytest.mark.slow
 def test_the_installed_study_command_runs_a_study_of_ones_own_from_any_directory(venv, workdir, tmp_path):
     """Packaged task presets (cartpole, pendulum), a study file on the user's search path, every stage but SAC."""
     studies = tmp_path / "studies"
@@ -117,7 +142,7 @@ def test_the_installed_study_command_runs_a_study_of_ones_own_from_any_directory
     result = _run(venv, workdir, "taskcomplexity-study", f"hydra.searchpath=[file://{studies}]", "study=mine",
                   "experiment=smoke", "sac.enabled=false", "backend=gym")
     assert result.returncode == 0, result.stderr[-3000:]
-    outputs = workdir / "outputs"  # the default paths.outputs, under the directory the command ran in
+    outputs = workdir / "outputs"
     returns = sorted(outputs.glob("cache/rwg/*/returns.parquet"))
     assert len(returns) == 2
     assert all(len(pd.read_parquet(path)) == 10 * 4 for path in returns)  # experiment=smoke: N = 10 × M = 4
