@@ -20,6 +20,7 @@ from taskcomplexity.metrics.histogram import bin_edges, histogram_terms, plugin_
 from taskcomplexity.metrics.knn import mutual_info_classif_1d
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
 from taskcomplexity.metrics.poic import poic
+from taskcomplexity.metrics.shuffle import permutation
 from taskcomplexity.metrics.temperature import (
     DEFAULT_GRID_POINTS,
     DEFAULT_REFINE_PEAKS,
@@ -98,7 +99,7 @@ def permutation_null(
     key = _null_key(returns, seed, repeats, bins)
     rows = []
     for repeat in range(repeats):
-        shuffled = rng.permutation(returns.ravel()).reshape(returns.shape)
+        shuffled = permutation(rng, returns.ravel()).reshape(returns.shape)
         estimate = pic(shuffled, bins=bins)
         found = poic(
             shuffled,
@@ -136,7 +137,7 @@ def null_pic(returns: object, *, seed: int, repeats: int = 10, bins: int = DEFAU
     if key in _NULL_PIC:
         return _NULL_PIC[key].copy()
     rng = np.random.default_rng(seed)
-    draws = np.array([pic(rng.permutation(returns.ravel()).reshape(returns.shape), bins=bins).pic
+    draws = np.array([pic(permutation(rng, returns.ravel()).reshape(returns.shape), bins=bins).pic
                       for _ in range(repeats)])
     _remember_null_pic(key, draws)
     return draws.copy()
