@@ -150,6 +150,10 @@ def test_cached_only_shows_the_curves_the_cache_holds_and_never_trains(tmp_path)
     # other settings are another curve: not shown
     other = study_sac_curves(Cache(tmp_path), tasks, {**node, "seeds": [1]}, cached_only=True)
     assert other.empty and other.attrs[MISSING_ATTR] == ["pend"]
+    # a task without a budget has no curve to show: missing, not an error (nothing is trained)
+    unbudgeted = _study({"id": "pend", "task": "pendulum"})
+    none = study_sac_curves(Cache(tmp_path), [(unbudgeted.task("pend"), PENDULUM)], node, cached_only=True)
+    assert none.empty and none.attrs[MISSING_ATTR] == ["pend"]
 
 
 class _Flag(gymnasium.Env):

@@ -69,7 +69,7 @@ def run_sac_stage(
     if cached_only:
         found = cache.lookup(STAGE, key, config=identity)
         return found, found is not None
-    variant = "sac+her" if settings.her else "sac"
+    variant = settings.variant
 
     def write(directory) -> dict:
         scratch = cache.scratch(STAGE, key)
@@ -158,11 +158,14 @@ def study_sac_curves(
 
     settings = sac_settings_from_config(node)
     skipped: dict[str, str] = {}
-    runs = []
+    runs, unbudgeted = [], []
     for entry, task in tasks:
         reason = sac_skip_reason(task)
         if reason is not None:
             skipped[entry.id] = reason
+            continue
+        if cached_only and settings.total_steps is None and entry.sac_steps is None:
+            unbudgeted.append(entry.id)  # no budget, so no curve can be cached: missing, not an error
             continue
         budgeted = with_budget(settings, entry.sac_steps, task_id=entry.id)
         runs.append((entry, task, budgeted))
@@ -170,7 +173,7 @@ def study_sac_curves(
         log.warning("SAC skipped for %s: %s", task_id, reason)
     if runs and not cached_only:
         log.info("%-26s %s", "sac", training_plan(cache, runs))
-    frames, missing = [], []
+    frames, missing = [], list(unbudgeted)
     for entry, task, budgeted in runs:
         found = []
         for variant in protocol_variants(task, budgeted):
