@@ -2,12 +2,24 @@
 
     python bench/bench_rwg.py                 # side-by-side ratios + all seven tasks at paper scale
     python bench/bench_rwg.py --one-task      # only two_link-dense at paper scale
+    python bench/bench_rwg.py --fused-only    # only the fused rollout against the step-by-step path
 
-Prints environment steps per second for each backend on the same work (same policies, same
-initial states), their ratio, and the wall time and peak resident memory of every study task at
-the paper's full scale (N = 10⁴ policies × M = 500 episodes) on the batched backend, each in a fresh
-process. The obstacle task runs with its contact model (``rwg.contacts=model``); the cost of the exact
-alternative (hand-overs to PyBullet) is measured on a small run and projected. Medians of repeats.
+Prints
+
+- the batched backend's fused rollout (one numba kernel per chunk: each policy's forward pass and
+  environment step per environment, finished episodes skipped) against its step-by-step path (one
+  batched forward pass, ``PolicyBatch.act``, and one ``BatchedReaching.step`` per environment step):
+  episodes per second on the same chunk (same policies, same initial states), for the 1-link arm and
+  the 2-link arm with the obstacle (contact model);
+- environment steps per second of the batched backend and the PyBullet reference on the same work,
+  and their ratio;
+- the wall time and peak resident memory of every study task at the paper's full scale (N = 10⁴
+  policies × M = 500 episodes) on the batched backend, each in a fresh process. The obstacle task runs
+  with its contact model (``rwg.contacts=model``); the cost of the exact alternative (hand-overs to
+  PyBullet) is measured on a small run and projected.
+
+Medians of repeats, the two sides of a ratio interleaved; the machine may be shared, so compare
+ratios (and the CPU-time ratio, which other processes disturb less) rather than absolute rates.
 """
 
 from __future__ import annotations
@@ -19,8 +31,10 @@ import subprocess
 import sys
 import time
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec
-from taskcomplexity.rwg import RWGSettings, run_rwg
+import numpy as np
+
+from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies, select_policies
+from taskcomplexity.rwg import RWGSettings, _simulate_batched, initial_states, run_rwg
 from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
 
 
@@ -31,6 +45,27 @@ def throughput(task, settings, backend, repeats):
         chunk = run_rwg(task, NetworkSpec(), PriorSpec(), settings, backend)
         rates.append(chunk.steps.sum() / (time.perf_counter() - started))
     return statistics.median(rates), int(chunk.steps.sum())
+
+
+def fused_against_stepwise(arm, reward, contacts, policies, episodes, repeats):
+    """Median episodes/s (wall) of both paths on one chunk, the median CPU-time ratio, max |Δ return|."""
+    task = make_task(arm, reward)
+    indices = np.arange(policies)
+    batch = sample_policies(NetworkSpec(), PriorSpec(), task.observation_size, task.action_size, 1, indices)
+    joint_angles, target = initial_states(task, 1, indices, episodes)
+    for fused in (False, True):  # compile
+        _simulate_batched(task, select_policies(batch, indices[:2]), joint_angles[:2, :4], target[:2, :4], contacts,
+                          fused=fused)
+    wall, cpu, returns = {False: [], True: []}, {False: [], True: []}, {}
+    for _ in range(repeats):
+        for fused in (False, True):
+            started, started_cpu = time.perf_counter(), time.process_time()
+            returns[fused] = _simulate_batched(task, batch, joint_angles, target, contacts, fused=fused).returns
+            wall[fused].append(time.perf_counter() - started)
+            cpu[fused].append(time.process_time() - started_cpu)
+    rate = {fused: policies * episodes / statistics.median(wall[fused]) for fused in wall}
+    cpu_ratio = statistics.median(cpu[False]) / statistics.median(cpu[True])
+    return rate[False], rate[True], cpu_ratio, float(np.abs(returns[True] - returns[False]).max())
 
 
 FULL_SCALE = """
@@ -74,7 +109,23 @@ def main() -> None:
     parser.add_argument("--policies", type=int, default=10_000)
     parser.add_argument("--episodes", type=int, default=500)
     parser.add_argument("--one-task", action="store_true", help="only two_link-dense at full scale")
+    parser.add_argument("--fused-only", action="store_true", help="only the fused rollout vs step by step")
+    parser.add_argument("--chunk-policies", type=int, default=200, help="policies of the fused/step-by-step chunk")
     args = parser.parse_args()
+
+    size = f"{args.chunk_policies} policies × {args.episodes} episodes"
+    print(f"Batched backend: fused rollout against step by step, one chunk of {size} (mlp32, N(0, I); "
+          "episodes per second, wall)")
+    print(f"{'task':<26}{'step by step':>14}{'fused':>12}{'ratio':>9}{'CPU ratio':>11}{'max |Δ return|':>16}")
+    for arm, reward, contacts in (("one_link_1m0", "dense", "model"), ("two_link_obstacle", "dense", "model")):
+        old, new, cpu_ratio, delta = fused_against_stepwise(arm, reward, contacts, args.chunk_policies, args.episodes,
+                                                            args.repeats)
+        print(f"{arm + '-' + reward:<26}{old:>14,.0f}{new:>12,.0f}{new / old:>8.2f}×{cpu_ratio:>10.2f}×{delta:>16.1e}",
+              flush=True)
+    print("(obstacle: rwg.contacts=model; returns differ only by the forward pass's float64 summation order)")
+    if args.fused_only:
+        return
+    print()
 
     print("RWG throughput, same work on both backends (mlp32, N(0, I); environment steps per second)")
     print(f"{'task':<26}{'pybullet':>12}{'batched':>14}{'ratio':>10}")

@@ -88,6 +88,15 @@ def test_the_kernels_forward_pass_is_the_policy_batchs(network):
                       h, g, 37)
         # the same sums in another order: float64 rounding only
         np.testing.assert_allclose(out[:act_size, :37].T, expected[p], rtol=1e-12, atol=1e-12)
+        # and each environment's outputs are its own, bit for bit, whichever environments share the pass
+        # (what keeps the returns independent of the chunking)
+        for e in (0, 5, 36):
+            h1, g1 = np.zeros((width, 1)), np.zeros((width, 1))
+            h1[:obs_size, 0] = x[p, e]
+            h1[obs_size:, 0] = 1.0 if network.input_bias else 0.0
+            alone = forward(weights[p], layer_sizes, network.bias, network.activation == "relu",
+                            network.output == "tanh", h1, g1, 1)
+            np.testing.assert_array_equal(alone[:act_size, 0], out[:act_size, e])
 
 
 def test_a_rollout_refuses_policies_that_do_not_fit_the_environments():

@@ -28,48 +28,74 @@ from taskcomplexity.tasks.step_kernel import arm_vector, step_block
 
 
 @numba.njit(cache=True, inline="always")
-def _dense(w, off, fan_in, fan_out, src, dst, n):
-    """dst[j, :n] = Σᵢ w[off + j·fan_in + i] · src[i, :n], summed in order i = 0, 1, … for every column.
+def _rows4(w, b0, fan_in, src, r0, r1, r2, r3, n):
+    """Four output rows (weights at b0, b0 + fan_in, …): four inputs per pass over the n environments."""
+    b1, b2, b3 = b0 + fan_in, b0 + 2 * fan_in, b0 + 3 * fan_in
+    for e in range(n):
+        r0[e] = 0.0
+        r1[e] = 0.0
+        r2[e] = 0.0
+        r3[e] = 0.0
+    i = 0
+    while i + 4 <= fan_in:
+        s0, s1, s2, s3 = src[i], src[i + 1], src[i + 2], src[i + 3]
+        w00, w01, w02, w03 = w[b0 + i], w[b0 + i + 1], w[b0 + i + 2], w[b0 + i + 3]
+        w10, w11, w12, w13 = w[b1 + i], w[b1 + i + 1], w[b1 + i + 2], w[b1 + i + 3]
+        w20, w21, w22, w23 = w[b2 + i], w[b2 + i + 1], w[b2 + i + 2], w[b2 + i + 3]
+        w30, w31, w32, w33 = w[b3 + i], w[b3 + i + 1], w[b3 + i + 2], w[b3 + i + 3]
+        for e in range(n):
+            x0, x1, x2, x3 = s0[e], s1[e], s2[e], s3[e]
+            r0[e] = (((r0[e] + w00 * x0) + w01 * x1) + w02 * x2) + w03 * x3
+            r1[e] = (((r1[e] + w10 * x0) + w11 * x1) + w12 * x2) + w13 * x3
+            r2[e] = (((r2[e] + w20 * x0) + w21 * x1) + w22 * x2) + w23 * x3
+            r3[e] = (((r3[e] + w30 * x0) + w31 * x1) + w32 * x2) + w33 * x3
+        i += 4
+    while i < fan_in:
+        si = src[i]
+        w0, w1, w2, w3 = w[b0 + i], w[b1 + i], w[b2 + i], w[b3 + i]
+        for e in range(n):
+            x = si[e]
+            r0[e] += w0 * x
+            r1[e] += w1 * x
+            r2[e] += w2 * x
+            r3[e] += w3 * x
+        i += 1
 
-    Two outputs and four inputs per pass over the n environments (fewer loads per multiply–add); the
-    parentheses keep each column's sum in input order, so the result is that of the plain loop.
+
+@numba.njit(cache=True, inline="always")
+def _row(w, b0, fan_in, src, r0, n):
+    """One output row, four inputs per pass."""
+    for e in range(n):
+        r0[e] = 0.0
+    i = 0
+    while i + 4 <= fan_in:
+        s0, s1, s2, s3 = src[i], src[i + 1], src[i + 2], src[i + 3]
+        w0, w1, w2, w3 = w[b0 + i], w[b0 + i + 1], w[b0 + i + 2], w[b0 + i + 3]
+        for e in range(n):
+            r0[e] = (((r0[e] + w0 * s0[e]) + w1 * s1[e]) + w2 * s2[e]) + w3 * s3[e]
+        i += 4
+    while i < fan_in:
+        si, w0 = src[i], w[b0 + i]
+        for e in range(n):
+            r0[e] += w0 * si[e]
+        i += 1
+
+
+@numba.njit(cache=True, inline="always")
+def _dense(w, off, fan_in, fan_out, src, dst, n):
+    """dst[j, :n] = Σᵢ w[off + j·fan_in + i] · src[i, :n], summed from 0 in order i = 0, 1, … in every column.
+
+    Blocks of four outputs × four inputs per pass over the n environments (fewer loads and stores
+    per multiply–add); the parentheses keep each column's sum in input order, so every variant
+    computes the plain loop's result, and a column's result does not depend on the others.
     """
     j = 0
-    while j + 2 <= fan_out:
-        b0 = off + j * fan_in
-        b1 = b0 + fan_in
-        r0, r1 = dst[j], dst[j + 1]
-        for e in range(n):
-            r0[e] = 0.0
-            r1[e] = 0.0
-        i = 0
-        while i + 4 <= fan_in:
-            s0, s1, s2, s3 = src[i], src[i + 1], src[i + 2], src[i + 3]
-            w00, w01, w02, w03 = w[b0 + i], w[b0 + i + 1], w[b0 + i + 2], w[b0 + i + 3]
-            w10, w11, w12, w13 = w[b1 + i], w[b1 + i + 1], w[b1 + i + 2], w[b1 + i + 3]
-            for e in range(n):
-                x0, x1, x2, x3 = s0[e], s1[e], s2[e], s3[e]
-                r0[e] = (((r0[e] + w00 * x0) + w01 * x1) + w02 * x2) + w03 * x3
-                r1[e] = (((r1[e] + w10 * x0) + w11 * x1) + w12 * x2) + w13 * x3
-            i += 4
-        while i < fan_in:
-            si = src[i]
-            w0, w1 = w[b0 + i], w[b1 + i]
-            for e in range(n):
-                r0[e] += w0 * si[e]
-                r1[e] += w1 * si[e]
-            i += 1
-        j += 2
-    if j < fan_out:
-        base = off + j * fan_in
-        row = dst[j]
-        for e in range(n):
-            row[e] = 0.0
-        for i in range(fan_in):
-            wi = w[base + i]
-            si = src[i]
-            for e in range(n):
-                row[e] += wi * si[e]
+    while j + 4 <= fan_out:
+        _rows4(w, off + j * fan_in, fan_in, src, dst[j], dst[j + 1], dst[j + 2], dst[j + 3], n)
+        j += 4
+    while j < fan_out:
+        _row(w, off + j * fan_in, fan_in, src, dst[j], n)
+        j += 1
 
 
 @numba.njit(cache=True)
