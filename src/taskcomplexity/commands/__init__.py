@@ -19,3 +19,30 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 # torchrl logs through a colour console handler of its own, set up at its import from this variable:
 # its INFO lines (buffers, collectors) are not for the console; its warnings still are.
 os.environ.setdefault("RL_LOGGING_LEVEL", "WARNING")
+
+
+def entry_point(run):
+    """The ``main()`` of an entry point whose work is ``run(cfg)``, a function of the composed config.
+
+    ``main()`` refuses a bad ``group=option`` override in one line (before Hydra parses the command
+    line), then runs ``run`` as a Hydra app over the packaged configs. Hydra names the job (and its
+    log file) after ``run``'s module: ``rwg``, ``metrics``, ``sac``, ``verdict``, ``study``.
+    """
+    import functools
+    import sys
+
+    import hydra
+
+    from taskcomplexity.cli import CONF_DIR, check_overrides
+
+    @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
+    @functools.wraps(run)
+    def app(cfg) -> None:
+        run(cfg)
+
+    def main() -> None:
+        check_overrides(sys.argv)
+        app()
+
+    main.__doc__ = f"The console script of :mod:`{run.__module__}` (and its shim under ``pipelines/``)."
+    return main

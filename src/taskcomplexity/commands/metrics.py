@@ -12,21 +12,18 @@ intervals, Welch matrices) are the report's: ``python pipelines/study.py`` write
 from __future__ import annotations
 
 import logging
-import sys
 
-import hydra
 from omegaconf import DictConfig
 
 from taskcomplexity.cli import (
-    CONF_DIR,
     cache_from_config,
-    check_overrides,
     metrics_settings_from_config,
     one_line_errors,
     run_name,
     rwg_request_from_config,
     study_requests,
 )
+from taskcomplexity.commands import entry_point
 from taskcomplexity.config import task_from_config
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
@@ -58,15 +55,7 @@ def run(cfg: DictConfig):
     return results
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
-def app(cfg: DictConfig) -> None:
-    run(cfg)
-
-
-def main() -> None:
-    """``taskcomplexity-metrics`` and ``pipelines/metrics.py``: a bad override in one line, else the app."""
-    check_overrides(sys.argv)
-    app()
+main = entry_point(run)
 
 
 if __name__ == "__main__":

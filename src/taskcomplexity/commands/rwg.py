@@ -7,12 +7,11 @@
 from __future__ import annotations
 
 import logging
-import sys
 
-import hydra
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import CONF_DIR, cache_from_config, check_overrides, one_line_errors, rwg_request_from_config
+from taskcomplexity.cli import cache_from_config, one_line_errors, rwg_request_from_config
+from taskcomplexity.commands import entry_point
 from taskcomplexity.stages.rwg_stage import run_rwg_stage
 
 log = logging.getLogger("rwg")
@@ -33,15 +32,7 @@ def run(cfg: DictConfig):
     return artefact
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
-def app(cfg: DictConfig) -> None:
-    run(cfg)
-
-
-def main() -> None:
-    """``taskcomplexity-rwg`` and ``pipelines/rwg.py``: a bad override in one line, else the app."""
-    check_overrides(sys.argv)
-    app()
+main = entry_point(run)
 
 
 if __name__ == "__main__":

@@ -13,13 +13,12 @@ with one line naming ``sac.total_steps``. An interrupted run resumes from its la
 from __future__ import annotations
 
 import logging
-import sys
 from typing import Any
 
-import hydra
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import CONF_DIR, cache_from_config, check_overrides, entry_config, one_line_errors, study_from
+from taskcomplexity.cli import cache_from_config, entry_config, one_line_errors, study_from
+from taskcomplexity.commands import entry_point
 from taskcomplexity.config import task_from_config
 from taskcomplexity.rl import with_budget
 from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config
@@ -60,15 +59,7 @@ def study_entry_for(cfg: Any, task) -> Any:
     return None
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
-def app(cfg: DictConfig) -> None:
-    run(cfg)
-
-
-def main() -> None:
-    """``taskcomplexity-sac`` and ``pipelines/sac.py``: a bad override in one line, else the app."""
-    check_overrides(sys.argv)
-    app()
+main = entry_point(run)
 
 
 if __name__ == "__main__":

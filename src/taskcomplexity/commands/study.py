@@ -12,25 +12,20 @@ printed says where the report is.
 
 from __future__ import annotations
 
-import sys
-
-import hydra
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import CONF_DIR, check_overrides, one_line_errors
+from taskcomplexity.cli import one_line_errors
+from taskcomplexity.commands import entry_point
 from taskcomplexity.study_run import run_study
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
-def app(cfg: DictConfig) -> None:
-    one_line_errors(run_study)(cfg)
+@one_line_errors
+def run(cfg: DictConfig):
+    """The whole chain for ``cfg`` (:func:`taskcomplexity.study_run.run_study`)."""
+    return run_study(cfg)
 
 
-def main() -> None:
-    """``taskcomplexity-study`` and ``pipelines/study.py``: a bad override in one line, else the app."""
-    check_overrides(sys.argv)
-    app()
-
+main = entry_point(run)
 
 if __name__ == "__main__":
     main()

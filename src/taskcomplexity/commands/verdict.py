@@ -12,31 +12,28 @@ cache hit.
 from __future__ import annotations
 
 import logging
-import sys
 
-import hydra
 import pandas as pd
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import CONF_DIR, check_overrides, one_line_errors
+from taskcomplexity.cli import one_line_errors
+from taskcomplexity.commands import entry_point
 from taskcomplexity.stages.chain import run_verdict
 
 log = logging.getLogger("verdict")
 
 
-@hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
-def app(cfg: DictConfig) -> None:
-    artefact = one_line_errors(run_verdict)(cfg)
+@one_line_errors
+def run(cfg: DictConfig):
+    """The study's verdict artefact (computed or reused); prints its per-metric summary."""
+    artefact = run_verdict(cfg)
     summary = pd.read_parquet(artefact.file("summary.parquet"))
     log.info("verdict: %s", artefact.file("verdict.parquet"))
     print(summary.to_string(index=False), flush=True)
+    return artefact
 
 
-def main() -> None:
-    """``taskcomplexity-verdict`` and ``pipelines/verdict.py``: a bad override in one line, else the app."""
-    check_overrides(sys.argv)
-    app()
-
+main = entry_point(run)
 
 if __name__ == "__main__":
     main()
