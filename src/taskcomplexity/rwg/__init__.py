@@ -17,6 +17,7 @@ import torch
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec, sample_policies, select_policy
+from taskcomplexity.progress import Progress, progress_bar
 from taskcomplexity.rwg.gym_backend import ENVIRONMENTS_IN_FLIGHT, GymRollout
 from taskcomplexity.seeding import episode_uniforms
 from taskcomplexity.tasks import mechanics
@@ -337,7 +338,7 @@ def run_rwg(
     *,
     completed: dict[tuple[int, int], ReturnChunk] | None = None,
     on_chunk: Callable[[tuple[int, int], ReturnChunk], None] | None = None,
-    progress: bool = False,
+    progress: Progress = False,
 ) -> ReturnChunk:
     """Algorithm 1 over this shard's policies.
 
@@ -347,23 +348,23 @@ def run_rwg(
         Chunks already computed (by an interrupted run), keyed by (start, stop); they are reused.
     on_chunk : callable, optional
         Called with each newly computed chunk (e.g. to save it for resumption).
-    progress : bool
-        Show a tqdm bar over environment episodes.
+    progress : bool or tqdm
+        Show a bar over environment episodes, or advance a study stage's bar
+        (:mod:`taskcomplexity.progress`).
     """
     settings.validate()
     backend = resolve_backend(task, backend)
     completed = dict(completed or {})
     ranges = chunks(task, network, settings, backend)
-    from tqdm.auto import tqdm
-
     total = sum(b - a for a, b in ranges) * settings.episodes
-    bar = tqdm(total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", disable=not progress, smoothing=0.1)
+    bar = progress_bar(progress, total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", smoothing=0.1)
     rollout = GymRollout(task) if backend == "gym" else None
     try:
         for key in ranges:
             if key not in completed:
                 completed[key] = simulate_chunk(
-                    task, network, prior, settings, *key, backend=backend, progress=progress, rollout=rollout
+                    task, network, prior, settings, *key, backend=backend, progress=progress is True,
+                    rollout=rollout
                 )
                 if on_chunk is not None:
                     on_chunk(key, completed[key])

@@ -7,7 +7,6 @@ The report reads what these produce (:func:`study_artefacts`); it is written by
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,8 +23,10 @@ from taskcomplexity.cli import (
 )
 from taskcomplexity.config import build
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.progress import stage_bar
 from taskcomplexity.stages.cache import Artefact, outcome
-from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, run_diagnostics_stage
+from taskcomplexity.stages.stage_log import StageLog
 from taskcomplexity.stages.task_artefacts import TaskMetrics, study_metrics
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
 from taskcomplexity.study import Study
@@ -57,6 +58,20 @@ def _sac_curves(cfg: Any, cache, results):
             log.info("SAC not trained (sac.enabled=false); no cached curves for %d of %d tasks: %s",
                      len(missing), len(tasks), curves.attrs["sac_command"])
     return curves
+
+
+def _diagnostics(cache, results, settings, diagnostics_settings, *, registry, force) -> dict[str, Artefact]:
+    """Each task's diagnostics artefact (task id → artefact), under one progress bar."""
+    stage = StageLog("diagnostics")
+    with stage_bar("diagnostics", len(results), "task") as bar:
+        for result in results:
+            bar.set_postfix_str(result.task_id)
+            with stage.task(result.task_id) as record:
+                record.artefact, record.hit = run_diagnostics_stage(
+                    cache, result.rwg, settings, diagnostics_settings, registry=registry, force=force)
+            bar.update()
+    stage.summarise()
+    return {r.name: r.artefact for r in stage.records}
 
 
 @dataclass(frozen=True)
@@ -100,20 +115,16 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
     force = bool(cfg.force)
     results = study_metrics(cache, list(requests), settings, names=[e.id for e in entries], registry=registry,
                             force=force, progress=True)
-    diagnostics = study_diagnostics(
-        cache,
-        {r.task_id: r.rwg for r in results},
-        settings,
-        build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"),
-        registry=registry,
-        force=force,
-        progress=True,
-    )
+    diagnostics = _diagnostics(cache, results, settings, build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"),
+                               registry=registry, force=force)
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
-    started = time.perf_counter()
-    verdict, hit = run_verdict_stage(cache, study, {r.task_id: r.metrics for r in results}, diagnostics=diagnostics,
-                                     sac_curves=sac, alpha=settings.alpha, registry=registry, force=force)
-    log.info("%-26s %s: %s", "verdict", outcome(hit, time.perf_counter() - started), verdict.file("verdict.parquet"))
+    stage = StageLog("verdict")
+    with stage.task(study.name) as record:
+        record.artefact, record.hit = run_verdict_stage(
+            cache, study, {r.task_id: r.metrics for r in results}, diagnostics=diagnostics, sac_curves=sac,
+            alpha=settings.alpha, registry=registry, force=force)
+    verdict = record.artefact
+    log.info("%-12s %s: %s", "verdict", outcome(record.hit, record.seconds), verdict.file("verdict.parquet"))
     return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha)
 
 

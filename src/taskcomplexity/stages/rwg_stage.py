@@ -22,6 +22,7 @@ from filelock import FileLock
 from taskcomplexity.config import result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
 from taskcomplexity.stages.keys import canonical, stage_key
@@ -109,7 +110,7 @@ def _shard_file(scratch: Path, shard: int, shards: int) -> Path:
     return scratch / f"shard-{shard:04d}-of-{shards:04d}.npz"
 
 
-def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bool = False,
+def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: Progress = False,
                   scratch: Path | None = None) -> ReturnChunk:
     """Compute (or reuse) one shard's returns, resuming from chunks saved in ``scratch``.
 
@@ -174,7 +175,7 @@ def _shard_lock(cache: Cache, key: str, shard: int) -> FileLock:
     return FileLock(str(directory / f".{key}.shard-{shard}.lock"))
 
 
-def _ensure_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: bool) -> bool:
+def _ensure_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: Progress) -> bool:
     """Compute one shard under its lock unless it (or the whole artefact) already exists.
 
     Returns False when the merged artefact appeared meanwhile (a concurrent job finished it).
@@ -215,7 +216,7 @@ def run_rwg_stage(
     request: RWGRequest,
     *,
     force: bool = False,
-    progress: bool = False,
+    progress: Progress = False,
     compute_missing: bool = True,
 ) -> tuple[Artefact | None, bool]:
     """Produce the returns artefact of ``request`` (or this job's shard of it).

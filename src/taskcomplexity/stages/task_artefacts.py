@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import logging
-import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.stages.cache import Artefact, Cache, outcome
+from taskcomplexity.progress import stage_bar
+from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage
+from taskcomplexity.stages.rwg_stage import STAGE as RWG_STAGE
 from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
+from taskcomplexity.stages.stage_log import StageLog
 
 log = logging.getLogger(__name__)
 
@@ -41,20 +44,35 @@ def study_metrics(
 ) -> list[TaskMetrics]:
     """Compute or reuse the RWG and metrics artefacts of every task, in the order given.
 
-    ``names`` are the entries' ids (default: their task ids); ``registry`` holds the metrics estimated.
+    Stage by stage: the RWG artefacts of every task, then their metrics; with ``progress``, one bar
+    per stage (episodes, then tasks) naming the task at work. Each task's outcome is logged at DEBUG
+    level (the run log), each stage's summary at INFO. ``names`` are the entries' ids (default: their
+    task ids); ``registry`` holds the metrics estimated.
     """
     names = names or [r.task.task_id for r in requests]
-    results = []
-    for name, request in zip(names, requests, strict=True):
-        started = time.perf_counter()
-        rwg, rwg_hit = run_rwg_stage(cache, request, force=force, progress=progress)
-        middle = time.perf_counter()
-        metrics, hit = run_metrics_stage(cache, rwg, settings, label=request.label, registry=registry, force=force,
-                                         progress=progress)
-        log.info("%-26s rwg %s, metrics %s", name, outcome(rwg_hit, middle - started),
-                 outcome(hit, time.perf_counter() - middle))
-        results.append(TaskMetrics(name, request, rwg, metrics))
-    return results
+    todo = [r for r in requests if force or cache.lookup(RWG_STAGE, r.key, r.identity()) is None]
+    episodes = sum(r.settings.policies * r.settings.episodes for r in todo)
+    rwg = StageLog("rwg")
+    with stage_bar("rwg", episodes, "ep") if progress else nullcontext() as bar:
+        for name, request in zip(names, requests, strict=True):
+            if bar is not None:
+                bar.set_postfix_str(name)
+            with rwg.task(name) as record:
+                record.artefact, record.hit = run_rwg_stage(cache, request, force=force, progress=bar or False)
+    rwg.summarise()
+    metrics = StageLog("metrics")
+    with stage_bar("metrics", len(requests), "task") if progress else nullcontext() as bar:
+        for name, request, returns in zip(names, requests, rwg.artefacts, strict=True):
+            if bar is not None:
+                bar.set_postfix_str(name)
+            with metrics.task(name) as record:
+                record.artefact, record.hit = run_metrics_stage(cache, returns, settings, label=request.label,
+                                                                registry=registry, force=force)
+            if bar is not None:
+                bar.update()
+    metrics.summarise()
+    return [TaskMetrics(name, request, returns, artefact) for name, request, returns, artefact
+            in zip(names, requests, rwg.artefacts, metrics.artefacts, strict=True)]
 
 
 def metrics_frame(results: list[TaskMetrics]) -> pd.DataFrame:
