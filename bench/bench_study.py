@@ -2,7 +2,8 @@
 
 Runs the seven-task study of ``experiment=published`` (SAC off, as in `make run`) into a fresh
 temporary cache, timing every stage of every task: wall seconds, CPU seconds (all threads of this
-process) and the core share, CPU / (wall × cores) — 1.00 means every core was busy the whole time.
+process) and the core share, CPU / (wall × cores) — 1.00 means every core was busy the whole time — and,
+per stage, how busy each core was (from /proc/stat: every process's work, so other load shows).
 The published scale (N = 10⁴ × M = 500, B = 10⁵, 1000 resamples) takes tens of minutes here, so the
 default is a reduced scale given by ``--policies``/``--episodes``/``--resamples`` (B stays 10⁵); the
 last column projects each stage to the published N × M by linear scaling (RWG and the metrics are
@@ -45,20 +46,48 @@ from taskcomplexity.stages.verdict_stage import run_verdict_stage
 CORES = os.cpu_count() or 1
 
 
+def core_ticks() -> list[tuple[int, int]]:
+    """(busy, total) clock ticks of every core since boot, from /proc/stat (every process's work; [] elsewhere)."""
+    try:
+        lines = Path("/proc/stat").read_text().splitlines()
+    except OSError:
+        return []
+    ticks = []
+    for line in lines:
+        name, *values = line.split()
+        if name.startswith("cpu") and name != "cpu":
+            numbers = [int(v) for v in values[:8]]
+            idle = numbers[3] + numbers[4]  # idle + iowait
+            ticks.append((sum(numbers) - idle, sum(numbers)))
+    return ticks
+
+
 class Timer:
-    """Wall and CPU seconds of a block (CPU: this process, every thread)."""
+    """Wall and CPU seconds of a block (CPU: this process, every thread), and how busy each core was."""
 
     def __enter__(self):
-        self.wall, self.cpu = time.perf_counter(), time.process_time()
+        self.wall, self.cpu, self.ticks = time.perf_counter(), time.process_time(), core_ticks()
         return self
 
     def __exit__(self, *exc):
         self.wall = time.perf_counter() - self.wall
         self.cpu = time.process_time() - self.cpu
+        after = core_ticks()
+        self.busy = [(b1 - b0, t1 - t0) for (b0, t0), (b1, t1) in zip(self.ticks, after, strict=True)]
 
     @property
     def share(self) -> float:
         return self.cpu / max(self.wall, 1e-9) / CORES
+
+
+def busy_shares(timers: list[Timer]) -> str:
+    """Each core's busy share over the timers' blocks (all processes on the machine), e.g. ``0.97 0.95``."""
+    if not timers or not timers[0].busy:
+        return "n/a"
+    cores = len(timers[0].busy)
+    busy = [sum(t.busy[c][0] for t in timers) for c in range(cores)]
+    total = [sum(t.busy[c][1] for t in timers) for c in range(cores)]
+    return " ".join(f"{b / max(n, 1):.2f}" for b, n in zip(busy, total, strict=True))
 
 
 def main() -> None:
@@ -115,15 +144,20 @@ def main() -> None:
         with Timer() as t:
             run_verdict_stage(cache, study, metrics, diagnostics=diagnostics, alpha=settings.alpha)
         report("all", "verdict", t, linear=False)
-        print(f"\n{'stage':<12} {'wall s':>8} {'share of wall':>14} {'core share':>10} {'projected s':>12}")
+        print(f"\n{'stage':<12} {'wall s':>8} {'share of wall':>14} {'core share':>10} {'projected s':>12}  "
+              "each core busy (every process)")
         total = sum(t.wall for _, t in rows)
         for stage in ("rwg", "metrics", "diagnostics", "verdict"):
             timers = [t for s, t in rows if s == stage]
             wall, cpu = sum(t.wall for t in timers), sum(t.cpu for t in timers)
             projected = f"{wall * scale:12.0f}" if stage != "verdict" else f"{wall:12.0f}"
-            print(f"{stage:<12} {wall:8.1f} {wall / total:14.0%} {cpu / wall / CORES:10.2f} {projected}")
+            print(f"{stage:<12} {wall:8.1f} {wall / total:14.0%} {cpu / wall / CORES:10.2f} {projected}  "
+                  f"{busy_shares(timers)}")
         print(f"{'total':<12} {total:8.1f} {'':>14} {sum(t.cpu for _, t in rows) / total / CORES:10.2f} "
-              f"{sum(t.wall * (scale if s != 'verdict' else 1) for s, t in rows):12.0f}")
+              f"{sum(t.wall * (scale if s != 'verdict' else 1) for s, t in rows):12.0f}  "
+              f"{busy_shares([t for _, t in rows])}")
+        print("core share: this process's CPU seconds / (wall seconds × cores); each core busy: the share of "
+              "the time each core was not idle, whoever ran on it (a busy machine shows here)")
 
 
 if __name__ == "__main__":
