@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper test test-all lint bench calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper test test-all lint bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -42,6 +42,9 @@ lint: $(STAMP) ## ruff
 
 bench: $(STAMP) ## benchmarks: figures and ratios measured side by side
 	$(PY) bench/run.py
+
+fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/fidelity.md
+	$(PY) bench/fidelity.py
 
 calibrate-contacts: $(STAMP) ## measure the obstacle contact model's one-sweep rates on PyBullet, beside the constants (minutes)
 	$(PY) bench/calibrate_contacts.py
