@@ -115,9 +115,9 @@ def median_seconds(run, repeats: int) -> tuple[float, object]:
 
 def bench_log_means(cases: dict[str, np.ndarray], repeats: int) -> None:
     from taskcomplexity.metrics.poic import PolicyLogMeans
-    from taskcomplexity.metrics.temperature import TemperatureLattice
+    from taskcomplexity.metrics.temperature import POICSearch
 
-    lattice = TemperatureLattice.from_options()
+    lattice = POICSearch().lattice()
     coarse = lattice.temperatures[lattice.coarse_indices]
     print(f"\n1. ℓₙ(λ) of every policy: {coarse.size} coarse temperatures and a 63-point bracket "
           f"(median of {repeats}; the kernel includes sorting the rows)")

@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.metrics import (
+    POICSearch,
     bootstrap,
     bootstrap_indices,
     bootstrap_multiplicities,
@@ -22,12 +23,12 @@ from taskcomplexity.metrics.poic import PolicyLogMeans
 SAME_ESTIMATE = 1e-9
 
 
-def naive_bootstrap(returns: np.ndarray, *, seed: int, resamples: int, bins: int, **search) -> pd.DataFrame:
+def naive_bootstrap(returns: np.ndarray, *, seed: int, resamples: int, bins: int, **options) -> pd.DataFrame:
     """The definition: resample policies, then call pic and poic on the resampled matrix."""
     rows = []
     for indices in bootstrap_indices(returns.shape[0], resamples=resamples, seed=seed):
         resampled = returns[indices]
-        found = poic(resampled, **search)
+        found = poic(resampled, **options)
         rows.append({"pic": pic(resampled, bins=bins).pic, "poic": found.poic, "temperature": found.temperature})
     return pd.DataFrame(rows)
 
@@ -48,9 +49,10 @@ def test_bootstrap_equals_the_naive_loop_with_an_outlier_and_a_known_optimum(con
     # return fixes S* for every resample.
     returns = continuous_returns.copy()
     returns[3, 5] = 400.0
-    search = {"temperature_range": (1e-2, 1e3), "grid_points": 50, "refine_points": 8, "optimal_return": 500.0}
-    fast = bootstrap(returns, seed=2, resamples=30, bins=1000, **search)
-    naive = naive_bootstrap(returns, seed=2, resamples=30, bins=1000, **search)
+    options = {"search": POICSearch(temperature_range=(1e-2, 1e3), grid_points=50, refine_points=8),
+               "optimal_return": 500.0}
+    fast = bootstrap(returns, seed=2, resamples=30, bins=1000, **options)
+    naive = naive_bootstrap(returns, seed=2, resamples=30, bins=1000, **options)
     np.testing.assert_allclose(fast[["pic", "poic"]], naive[["pic", "poic"]], rtol=0, atol=SAME_ESTIMATE)
     np.testing.assert_array_equal(fast["temperature"], naive["temperature"])
 

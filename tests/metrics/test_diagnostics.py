@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.metrics import (
+    POICSearch,
     permutation_null,
     pic,
     pic_bins_sweep,
@@ -26,7 +27,7 @@ def test_observed_pic_of_iid_returns_lies_within_its_permutation_null():
     rng = np.random.default_rng(8)
     returns = rng.normal(-30.0, 4.0, size=(40, 25))
     observed = pic(returns, bins=2000)
-    null = permutation_null(returns, seed=9, repeats=20, bins=2000, grid_points=40, refine_points=4)
+    null = permutation_null(returns, seed=9, repeats=20, bins=2000, search=POICSearch(grid_points=40, refine_points=4))
     summary = summarise_null(null, {"pic": observed.pic}).set_index("metric")
     assert abs(summary.loc["pic", "z"]) < 4
     # And the histogram estimator is far from 0 on data whose true MI is 0: the bias it measures.
@@ -36,17 +37,17 @@ def test_observed_pic_of_iid_returns_lies_within_its_permutation_null():
 def test_observed_pic_of_informative_returns_exceeds_its_null():
     rng = np.random.default_rng(8)
     returns = rng.normal(0.0, 10.0, size=(40, 1)) + rng.normal(0.0, 1.0, size=(40, 25))
-    null = permutation_null(returns, seed=9, repeats=5, bins=50, grid_points=40, refine_points=4)
+    null = permutation_null(returns, seed=9, repeats=5, bins=50, search=POICSearch(grid_points=40, refine_points=4))
     summary = summarise_null(null, {"pic": pic(returns, bins=50).pic}).set_index("metric")
     assert summary.loc["pic", "excess"] > 1.0 and summary.loc["pic", "z"] > 10
 
 
 def test_permutation_null_keeps_the_pooled_returns(continuous_returns):
-    null = permutation_null(continuous_returns, seed=1, repeats=3, bins=30, grid_points=30, refine_points=2)
+    null = permutation_null(continuous_returns, seed=1, repeats=3, bins=30, search=POICSearch(grid_points=30, refine_points=2))
     assert null["repeat"].tolist() == [0, 1, 2]
     # A permutation keeps every pooled statistic: the edges, hence H(R), are unchanged.
     np.testing.assert_allclose(null["h_r"], pic(continuous_returns, bins=30).h_r, rtol=0, atol=1e-12)
-    again = permutation_null(continuous_returns, seed=1, repeats=3, bins=30, grid_points=30, refine_points=2)
+    again = permutation_null(continuous_returns, seed=1, repeats=3, bins=30, search=POICSearch(grid_points=30, refine_points=2))
     pd.testing.assert_frame_equal(null, again)
 
 
@@ -136,7 +137,7 @@ def test_null_pic_is_the_pic_column_of_the_permutation_null(continuous_returns):
     # Computed afresh (nothing remembered for seed 31) and reused after permutation_null: both are
     # the PIC of the same permutations.
     fresh = null_pic(continuous_returns, seed=31, repeats=4, bins=40)
-    null = permutation_null(continuous_returns, seed=31, repeats=4, bins=40, grid_points=20, refine_points=2)
+    null = permutation_null(continuous_returns, seed=31, repeats=4, bins=40, search=POICSearch(grid_points=20, refine_points=2))
     np.testing.assert_array_equal(fresh, null["pic"])
     np.testing.assert_array_equal(null_pic(continuous_returns, seed=31, repeats=4, bins=40), null["pic"])
     changed = continuous_returns.copy()

@@ -11,8 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from taskcomplexity.metrics import mutual_information_curve, poic
+from taskcomplexity.metrics import POICSearch, mutual_information_curve, poic
 from taskcomplexity.metrics.poic import PolicyLogMeans
+from taskcomplexity.metrics.temperature import TemperatureLattice
 
 
 def h(p: float) -> float:
@@ -102,9 +103,15 @@ def test_poic_is_a_mutual_information_of_a_binary_variable(returns):
     assert 1e-4 <= found.temperature <= 2e4
 
 
+def test_the_default_search_is_the_published_one():
+    # Range 1e-4 … 2e4 with 200 coarse points (the published search's range and trial count).
+    assert POICSearch().lattice() == TemperatureLattice(low=1e-4, high=2e4, grid_points=200, refine_points=32,
+                                                        refine_peaks=3)
+
+
 def test_refinement_never_lowers_the_estimate(continuous_returns, integer_returns):
     for returns in (continuous_returns, integer_returns):
-        assert poic(returns).poic >= poic(returns, refine_points=1).poic
+        assert poic(returns).poic >= poic(returns, search=POICSearch(refine_points=1)).poic
 
 
 def test_the_search_is_deterministic(continuous_returns):
@@ -121,14 +128,14 @@ def test_a_range_below_the_maximum_puts_it_at_the_upper_boundary(continuous_retu
     # MI rises on the way to its interior maximum, so a range just below it is maximal at its
     # upper end. (Far below, small-sample curves can rise again towards the λ -> 0 limit.)
     best = poic(continuous_returns).temperature
-    found = poic(continuous_returns, temperature_range=(best / 4, best / 2))
+    found = poic(continuous_returns, search=POICSearch(temperature_range=(best / 4, best / 2)))
     assert found.at_boundary
     assert found.temperature == best / 2
 
 
 def test_a_range_above_the_maximum_puts_it_at_the_lower_boundary(continuous_returns):
     best = poic(continuous_returns).temperature
-    found = poic(continuous_returns, temperature_range=(best * 2, best * 4))
+    found = poic(continuous_returns, search=POICSearch(temperature_range=(best * 2, best * 4)))
     assert found.at_boundary
     assert found.temperature == best * 2
 

@@ -103,24 +103,47 @@ def test_bins_are_checked_by_the_bootstrap_batches_and_sweeps():
 )
 def test_temperature_range_must_be_positive_and_increasing(temperature_range):
     pattern = "temperature_range must be a pair \\(low, high\\) of finite numbers with 0 < low < high, got"
-    with pytest.raises(ValueError, match=pattern):
-        metrics.poic(GOOD, temperature_range=temperature_range)
-    with pytest.raises(ValueError, match=pattern):
-        metrics.bootstrap(GOOD, seed=0, resamples=2, temperature_range=temperature_range)
+    search = metrics.POICSearch(temperature_range=temperature_range)
+    for call in (search.validate, *_takers_of(search)):
+        with pytest.raises(ValueError, match=pattern):
+            call()
 
 
 @pytest.mark.parametrize(
     ("options", "message"),
     [
         ({"grid_points": 1}, "grid_points must be an integer >= 2, got 1"),
+        ({"grid_points": 2.0}, "grid_points must be an integer >= 2, got 2.0"),
         ({"refine_points": 0}, "refine_points must be an integer >= 1, got 0"),
         ({"refine_peaks": 0}, "refine_peaks must be an integer >= 1, got 0"),
-        ({"optimal_return": np.nan}, "optimal_return must be a finite real number, got nan"),
+        ({"refine_peaks": True}, "refine_peaks must be an integer >= 1, got True"),
     ],
 )
 def test_poic_search_options_are_checked(options, message):
-    with pytest.raises(ValueError, match=message):
-        metrics.poic(GOOD, **options)
+    search = metrics.POICSearch(**options)
+    for call in (search.validate, *_takers_of(search)):
+        with pytest.raises(ValueError, match=message):
+            call()
+
+
+def _takers_of(search: object) -> list:
+    """Every public function that takes a search, called with ``search``."""
+    return [
+        lambda: metrics.poic(GOOD, search=search),
+        lambda: metrics.bootstrap(GOOD, seed=0, resamples=2, bins=10, search=search),
+        lambda: metrics.permutation_null(GOOD, seed=0, repeats=1, bins=10, search=search),
+    ]
+
+
+def test_search_must_be_a_poic_search():
+    for call in _takers_of({"grid_points": 50}):
+        with pytest.raises(TypeError, match="search must be a POICSearch, got \\{'grid_points': 50\\}"):
+            call()
+
+
+def test_optimal_return_must_be_finite():
+    with pytest.raises(ValueError, match="optimal_return must be a finite real number, got nan"):
+        metrics.poic(GOOD, optimal_return=np.nan)
 
 
 @pytest.mark.parametrize(

@@ -53,6 +53,7 @@ from taskcomplexity.metrics.statistics import (
     random_sampling_score,
     validate_returns,
 )
+from taskcomplexity.metrics.temperature import POICSearch
 
 __all__ = [
     "DEFAULT_REGISTRY",
@@ -66,6 +67,7 @@ __all__ = [
     "KNNMIResult",
     "PICResult",
     "POICResult",
+    "POICSearch",
     "PolicyBinCounts",
     "ScoreSummary",
     "WelchResult",

@@ -39,13 +39,7 @@ from taskcomplexity.metrics.histogram import bin_edges, bin_scale, histogram_row
 from taskcomplexity.metrics.pic import DEFAULT_BINS
 from taskcomplexity.metrics.poic import PolicyLogMeans, SearchResult, search_poic, shared_log_means
 from taskcomplexity.metrics.resampled_histograms import SortedReturns, pooled_xlogx, sorted_row_xlogx
-from taskcomplexity.metrics.temperature import (
-    DEFAULT_GRID_POINTS,
-    DEFAULT_REFINE_PEAKS,
-    DEFAULT_REFINE_POINTS,
-    DEFAULT_TEMPERATURE_RANGE,
-    TemperatureLattice,
-)
+from taskcomplexity.metrics.temperature import DEFAULT_SEARCH, POICSearch, TemperatureLattice, check_search
 
 BOOTSTRAP_COLUMNS = (
     "resample",
@@ -105,10 +99,7 @@ def bootstrap(
     seed: int,
     resamples: int = 1000,
     bins: int = DEFAULT_BINS,
-    temperature_range: tuple[float, float] = DEFAULT_TEMPERATURE_RANGE,
-    grid_points: int = DEFAULT_GRID_POINTS,
-    refine_points: int = DEFAULT_REFINE_POINTS,
-    refine_peaks: int = DEFAULT_REFINE_PEAKS,
+    search: POICSearch = DEFAULT_SEARCH,
     optimal_return: float | None = None,
     confidence: float = 0.95,
     progress: bool = False,
@@ -127,8 +118,8 @@ def bootstrap(
         Number of resamples.
     bins : int, default 100_000
         Histogram bins of PIC (see :func:`~taskcomplexity.metrics.pic.pic`).
-    temperature_range, grid_points, refine_points, refine_peaks, optimal_return
-        The POIC search (see :func:`~taskcomplexity.metrics.poic.poic`).
+    search, optimal_return
+        The POIC temperature search and known optimal return (see :func:`~taskcomplexity.metrics.poic.poic`).
     confidence : float, default 0.95
         Level of the percentile interval; stored in ``attrs`` for :func:`summarise_bootstrap`.
     progress : bool, default False
@@ -149,7 +140,7 @@ def bootstrap(
     bins = check_bins(bins)
     resamples = check_int(resamples, "resamples", minimum=1)
     seed = check_seed(seed)
-    lattice = TemperatureLattice.from_options(temperature_range, grid_points, refine_points, refine_peaks)
+    lattice = check_search(search)
     if optimal_return is not None:
         optimal_return = check_real(optimal_return, "optimal_return")
     confidence = check_fraction(confidence, "confidence")

@@ -21,13 +21,7 @@ from taskcomplexity.metrics.knn import mutual_info_classif_1d
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
 from taskcomplexity.metrics.poic import poic
 from taskcomplexity.metrics.shuffle import permutation
-from taskcomplexity.metrics.temperature import (
-    DEFAULT_GRID_POINTS,
-    DEFAULT_REFINE_PEAKS,
-    DEFAULT_REFINE_POINTS,
-    DEFAULT_TEMPERATURE_RANGE,
-    TemperatureLattice,
-)
+from taskcomplexity.metrics.temperature import DEFAULT_SEARCH, POICSearch, check_search
 
 DEFAULT_BINS_SWEEP = (10, 100, 1000, 10_000, 100_000)
 """Numbers of bins of :func:`pic_bins_sweep`."""
@@ -55,18 +49,8 @@ class KNNMIResult:
     n_neighbors: int
 
 
-def permutation_null(
-    returns: object,
-    *,
-    seed: int,
-    repeats: int = 10,
-    bins: int = DEFAULT_BINS,
-    temperature_range: tuple[float, float] = DEFAULT_TEMPERATURE_RANGE,
-    grid_points: int = DEFAULT_GRID_POINTS,
-    refine_points: int = DEFAULT_REFINE_POINTS,
-    refine_peaks: int = DEFAULT_REFINE_PEAKS,
-    optimal_return: float | None = None,
-) -> pd.DataFrame:
+def permutation_null(returns: object, *, seed: int, repeats: int = 10, bins: int = DEFAULT_BINS,
+                     search: POICSearch = DEFAULT_SEARCH, optimal_return: float | None = None) -> pd.DataFrame:
     """PIC and POIC of the returns permuted across policies, where the true MI is 0.
 
     Each repeat shuffles all N·M returns uniformly and reshapes them to (N, M), which keeps the
@@ -82,8 +66,8 @@ def permutation_null(
         Number of permutations.
     bins : int, default 100_000
         Histogram bins of PIC.
-    temperature_range, grid_points, refine_points, refine_peaks, optimal_return
-        The POIC search (see :func:`~taskcomplexity.metrics.poic.poic`).
+    search, optimal_return
+        The POIC temperature search and known optimal return (see :func:`~taskcomplexity.metrics.poic.poic`).
 
     Returns
     -------
@@ -94,21 +78,14 @@ def permutation_null(
     returns = validate_returns(returns)
     repeats = check_int(repeats, "repeats", minimum=1)
     bins = check_bins(bins)
-    TemperatureLattice.from_options(temperature_range, grid_points, refine_points, refine_peaks)
+    check_search(search)
     rng = np.random.default_rng(check_seed(seed))
     key = _null_key(returns, seed, repeats, bins)
     rows = []
     for repeat in range(repeats):
         shuffled = permutation(rng, returns.ravel()).reshape(returns.shape)
         estimate = pic(shuffled, bins=bins)
-        found = poic(
-            shuffled,
-            temperature_range=temperature_range,
-            grid_points=grid_points,
-            refine_points=refine_points,
-            refine_peaks=refine_peaks,
-            optimal_return=optimal_return,
-        )
+        found = poic(shuffled, search=search, optimal_return=optimal_return)
         rows.append(
             {
                 "repeat": repeat,

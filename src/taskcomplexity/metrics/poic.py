@@ -29,12 +29,11 @@ import scipy.special
 from taskcomplexity.metrics._validation import check_real, validate_returns
 from taskcomplexity.metrics.log_mean_exp import log_mean_exp
 from taskcomplexity.metrics.temperature import (
-    DEFAULT_GRID_POINTS,
-    DEFAULT_REFINE_PEAKS,
-    DEFAULT_REFINE_POINTS,
-    DEFAULT_TEMPERATURE_RANGE,
+    DEFAULT_SEARCH,
     TIE_TOLERANCE,
+    POICSearch,
     TemperatureLattice,
+    check_search,
 )
 
 _LOG_P_FLOOR = -700.0
@@ -317,10 +316,7 @@ def reference_return(returns: np.ndarray, optimal_return: float | None) -> float
 def poic(
     returns: object,
     *,
-    temperature_range: tuple[float, float] = DEFAULT_TEMPERATURE_RANGE,
-    grid_points: int = DEFAULT_GRID_POINTS,
-    refine_points: int = DEFAULT_REFINE_POINTS,
-    refine_peaks: int = DEFAULT_REFINE_PEAKS,
+    search: POICSearch = DEFAULT_SEARCH,
     optimal_return: float | None = None,
     log_means: PolicyLogMeans | None = None,
 ) -> POICResult:
@@ -330,14 +326,9 @@ def poic(
     ----------
     returns : array_like, shape (N, M)
         Episode returns; row n is policy n, column e is episode e. N, M >= 2, all finite.
-    temperature_range : (float, float), default (1e-4, 2e4)
-        Range ``(low, high)``, ``0 < low < high``, of the temperature λ (return units).
-    grid_points : int, default 200
-        Coarse log-spaced temperatures over the range.
-    refine_points : int, default 32
-        Fine steps per coarse step in a refined bracket (1 = no refinement).
-    refine_peaks : int, default 3
-        Number of coarse local maxima whose brackets are refined, highest first.
+    search : POICSearch, default POICSearch()
+        The temperature search: range, coarse grid points, fine steps per coarse step and number
+        of refined peaks (see :class:`~taskcomplexity.metrics.temperature.POICSearch`).
     optimal_return : float, optional
         A known optimal return; S* becomes ``max(optimal_return, max S)``.
     log_means : PolicyLogMeans, optional
@@ -358,7 +349,7 @@ def poic(
     step is a factor 1.003 in λ.
     """
     returns = validate_returns(returns)
-    lattice = TemperatureLattice.from_options(temperature_range, grid_points, refine_points, refine_peaks)
+    lattice = check_search(search)
     s_star = reference_return(returns, optimal_return)
     source = shared_log_means(returns, log_means)
     found = search_poic(source, lattice, np.ones((1, returns.shape[0])), np.array([s_star]))

@@ -25,7 +25,7 @@ from taskcomplexity.metrics.diagnostics import KNNMIResult, null_pic, pic_knn, p
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
 from taskcomplexity.metrics.poic import POICResult, PolicyLogMeans, poic
 from taskcomplexity.metrics.statistics import ScoreSummary, random_sampling_score
-from taskcomplexity.metrics.temperature import DEFAULT_TEMPERATURE_RANGE
+from taskcomplexity.metrics.temperature import DEFAULT_SEARCH, POICSearch
 
 COMPONENTS = ("null", "subsample", "knn", "batch_null", "batch_knn")
 """Random components with their own seed stream (:func:`component_seeds`)."""
@@ -45,8 +45,8 @@ class Estimation:
     ----------
     bins : int
         B, histogram bins of PIC and its variants.
-    temperature_range : (float, float)
-        POIC temperature search interval.
+    search : POICSearch
+        The POIC temperature search.
     resamples : int
         Bootstrap resamples of the policies.
     bootstrap_seed : int
@@ -60,7 +60,7 @@ class Estimation:
     """
 
     bins: int = DEFAULT_BINS
-    temperature_range: tuple[float, float] = DEFAULT_TEMPERATURE_RANGE
+    search: POICSearch = DEFAULT_SEARCH
     resamples: int = 1000
     bootstrap_seed: int = 0
     null_repeats: int = 10
@@ -108,8 +108,7 @@ class Sample:
 
     @cached_property
     def poic(self) -> POICResult:
-        return poic(self.returns, temperature_range=tuple(self.estimation.temperature_range),
-                    log_means=self.log_means)
+        return poic(self.returns, search=self.estimation.search, log_means=self.log_means)
 
     @cached_property
     def score(self) -> ScoreSummary:
@@ -137,9 +136,8 @@ class Sample:
     def bootstrap(self) -> pd.DataFrame:
         """Bootstrap draws of PIC and POIC (:func:`~taskcomplexity.metrics.bootstrap.bootstrap`)."""
         e = self.estimation
-        return bootstrap(self.returns, seed=e.bootstrap_seed, resamples=e.resamples, bins=e.bins,
-                         temperature_range=tuple(e.temperature_range), progress=self.progress,
-                         log_means=self.log_means)
+        return bootstrap(self.returns, seed=e.bootstrap_seed, resamples=e.resamples, bins=e.bins, search=e.search,
+                         progress=self.progress, log_means=self.log_means)
 
     def subsample(self, policies: np.ndarray, *, batch: int | None = None) -> Sample:
         """The sample of the rows ``policies`` (e.g. a batch), with the same settings."""

@@ -6,7 +6,8 @@ search evaluates the coarse grid, picks up to ``refine_peaks`` local maxima of t
 (highest first) and evaluates every lattice point strictly between each peak's two coarse
 neighbours. Because the lattice is fixed, the point estimate and every bootstrap resample visit
 temperatures from the same finite set, and per-policy work done at a lattice temperature can be
-shared between them.
+shared between them. The four options are one :class:`POICSearch`, which every estimator that
+searches takes as ``search``.
 """
 
 from __future__ import annotations
@@ -17,17 +18,59 @@ import numpy as np
 
 from taskcomplexity.metrics._validation import check_int, check_temperature_range
 
-DEFAULT_TEMPERATURE_RANGE = (1e-4, 2e4)
-"""Temperature range of the published POIC search."""
-DEFAULT_GRID_POINTS = 200
-"""Coarse log-spaced temperatures over the range (the published random search used 200 trials)."""
-DEFAULT_REFINE_POINTS = 32
-"""Fine steps per coarse step; a refined bracket holds 2·32 - 1 = 63 new temperatures."""
-DEFAULT_REFINE_PEAKS = 3
-"""Coarse local maxima refined, highest first (guards against a second peak of similar height)."""
 TIE_TOLERANCE = 1e-10
 """Mutual-information values (nats) closer than this count as equal: curves are flat only up to
 summation rounding on plateaus (for example at small λ, where MI reaches its limit exactly)."""
+
+
+@dataclass(frozen=True)
+class POICSearch:
+    """Options of the POIC temperature search, the defaults being the published search.
+
+    Attributes
+    ----------
+    temperature_range : (float, float), default (1e-4, 2e4)
+        Range ``(low, high)``, ``0 < low < high``, of the temperature λ (return units).
+    grid_points : int, default 200
+        Coarse log-spaced temperatures over the range (the published random search used 200 trials).
+    refine_points : int, default 32
+        Fine steps per coarse step in a refined bracket (1 = no refinement); a bracket then holds
+        2·32 - 1 = 63 new temperatures.
+    refine_peaks : int, default 3
+        Coarse local maxima refined, highest first (guards against a second peak of similar height).
+    """
+
+    temperature_range: tuple[float, float] = (1e-4, 2e4)
+    grid_points: int = 200
+    refine_points: int = 32
+    refine_peaks: int = 3
+
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the first invalid option, what is allowed and the value received
+        (the checks of :meth:`lattice`)."""
+        self.lattice()
+
+    def lattice(self) -> TemperatureLattice:
+        """The validated options as the lattice the search visits."""
+        low, high = check_temperature_range(self.temperature_range)
+        return TemperatureLattice(
+            low=low,
+            high=high,
+            grid_points=check_int(self.grid_points, "grid_points", minimum=2),
+            refine_points=check_int(self.refine_points, "refine_points", minimum=1),
+            refine_peaks=check_int(self.refine_peaks, "refine_peaks", minimum=1),
+        )
+
+
+DEFAULT_SEARCH = POICSearch()
+"""The published POIC temperature search (the default ``search`` of the estimators)."""
+
+
+def check_search(search: object) -> TemperatureLattice:
+    """The lattice of ``search``, a valid :class:`POICSearch` (the public ``search`` argument)."""
+    if not isinstance(search, POICSearch):
+        raise TypeError(f"search must be a POICSearch, got {search!r}")
+    return search.lattice()
 
 
 @dataclass(frozen=True)
@@ -51,24 +94,6 @@ class TemperatureLattice:
     grid_points: int
     refine_points: int
     refine_peaks: int
-
-    @classmethod
-    def from_options(
-        cls,
-        temperature_range: object = DEFAULT_TEMPERATURE_RANGE,
-        grid_points: object = DEFAULT_GRID_POINTS,
-        refine_points: object = DEFAULT_REFINE_POINTS,
-        refine_peaks: object = DEFAULT_REFINE_PEAKS,
-    ) -> TemperatureLattice:
-        """Validate the public search options and build the lattice."""
-        low, high = check_temperature_range(temperature_range)
-        return cls(
-            low=low,
-            high=high,
-            grid_points=check_int(grid_points, "grid_points", minimum=2),
-            refine_points=check_int(refine_points, "refine_points", minimum=1),
-            refine_peaks=check_int(refine_peaks, "refine_peaks", minimum=1),
-        )
 
     @property
     def size(self) -> int:

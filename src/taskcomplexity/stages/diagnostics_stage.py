@@ -142,7 +142,7 @@ def diagnostics_key(
 
 def estimation(metrics_settings: MetricsSettings, settings: DiagnosticsSettings) -> Estimation:
     """The estimator settings of the stage's metrics."""
-    return Estimation(bins=int(metrics_settings.bins), temperature_range=tuple(metrics_settings.temperature_range),
+    return Estimation(bins=int(metrics_settings.bins), search=metrics_settings.poic_search(),
                       null_repeats=settings.repeats, knn_neighbors=settings.knn_neighbors,
                       knn_max_samples=settings.knn_max_samples,
                       knn_episodes_per_policy=settings.knn_episodes_per_policy, seed=settings.seed)
@@ -183,11 +183,10 @@ def compute_diagnostics(
     """
     sample = Sample(returns, estimation(metrics_settings, settings))
     returns, bins = sample.returns, sample.estimation.bins
-    temperature_range = tuple(metrics_settings.temperature_range)
     steps = tqdm(total=5, desc="diagnostics", disable=not progress, leave=False)
 
     null = est.permutation_null(
-        returns, seed=sample.seed("null"), repeats=settings.repeats, bins=bins, temperature_range=temperature_range
+        returns, seed=sample.seed("null"), repeats=settings.repeats, bins=bins, search=sample.estimation.search
     )
     summary = est.summarise_null(null, {"pic": sample.pic.pic, "poic": sample.poic.poic})
     steps.update()

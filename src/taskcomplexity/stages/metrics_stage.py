@@ -28,6 +28,7 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample
+from taskcomplexity.metrics.temperature import POICSearch
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.rwg_stage import load_returns
@@ -48,7 +49,8 @@ class MetricsSettings:
     bins : int
         B, histogram bins of PIC (>= 2).
     temperature_range : (float, float)
-        POIC temperature search interval, 0 < low < high.
+        POIC temperature search interval, 0 < low < high (the other search options keep their
+        :class:`~taskcomplexity.metrics.temperature.POICSearch` defaults).
     resamples : int
         Bootstrap resamples of the policies (>= 1).
     batches : int
@@ -60,7 +62,7 @@ class MetricsSettings:
     """
 
     bins: int = 100_000
-    temperature_range: tuple[float, float] = (1e-4, 2e4)
+    temperature_range: tuple[float, float] = POICSearch().temperature_range
     resamples: int = 1000
     batches: int = 5
     alpha: float = setting(0.005, result=False)
@@ -87,10 +89,14 @@ class MetricsSettings:
         """The fields declared to change the result (all but ``alpha``, which only the verdict reads)."""
         return result_identity(self)
 
+    def poic_search(self) -> POICSearch:
+        """The POIC temperature search over ``temperature_range``."""
+        return POICSearch(temperature_range=tuple(self.temperature_range))
+
     def estimation(self) -> Estimation:
         """The estimator settings every registered metric reads."""
-        return Estimation(bins=self.bins, temperature_range=tuple(self.temperature_range),
-                          resamples=self.resamples, bootstrap_seed=self.seed)
+        return Estimation(bins=self.bins, search=self.poic_search(), resamples=self.resamples,
+                          bootstrap_seed=self.seed)
 
 
 def metrics_key(rwg_key: str, settings: MetricsSettings, registry: Registry = DEFAULT_REGISTRY) -> str:
