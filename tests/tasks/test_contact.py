@@ -78,9 +78,9 @@ def test_the_trigonometry_free_gate_never_misses_a_pose_near_the_block():
     # the exact test: distance from the block to the forearm's axis segment, against the zone radius
     ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
     ux, uy = np.cos(q1 + q2), np.sin(q1 + q2)
-    rx, ry = zone[contact.OX] - ex, zone[contact.OY] - ey
-    t = np.clip(rx * ux + ry * uy, zone[contact.X0], zone[contact.X1])
-    near = (rx - t * ux) ** 2 + (ry - t * uy) ** 2 < zone[contact.ZONE_RADIUS] ** 2
+    rx, ry = zone.ox - ex, zone.oy - ey
+    t = np.clip(rx * ux + ry * uy, zone.x0, zone.x1)
+    near = (rx - t * ux) ** 2 + (ry - t * uy) ** 2 < zone.radius ** 2
     gate = np.array([contact.near_block(zone, l1, a, b) for a, b in zip(q1, q2, strict=True)])
     assert near.sum() > 1000  # the sample does reach the block
     np.testing.assert_array_equal(gate, near)  # after the pruning, the gate is the exact test
@@ -106,7 +106,7 @@ def test_a_one_sweep_solve_keeps_the_first_normal_impulse():
     from taskcomplexity.tasks.urdf import read_arm_urdf, urdf_path
 
     zone = contact_zone(TASK, "model")
-    inv = inverse_mass_matrix(ArmDynamics(read_arm_urdf(urdf_path(TASK.arm))).vector())
+    inv = inverse_mass_matrix(ArmDynamics(read_arm_urdf(urdf_path(TASK.arm))).params())
     l1 = TASK.arm.links[0].length
     q1, q2 = BLOCK_ANGLE - 0.004, 0.0  # the forearm's side overlapping the block
     points, ends, rows, impulse = contact.scratch()

@@ -8,8 +8,8 @@ same episode and re-scores the transition with a user ``reward_fn``. We use it a
   *after* a step, so under the ``future`` strategy (goal from step t' ∈ [t, end of episode], uniform)
   the transition's own outcome is a possible goal, as in Andrychowicz et al. (2017);
 - ``reward_fn`` = :func:`relabel`, the task's own rules for the new goal: the reward of
-  :func:`taskcomplexity.tasks.goal_env.compute_reward` (plus the stored action term −Σ aᵢ² for a
-  dense task) and the termination ``‖a − g‖ < threshold``, which it also writes into
+  :func:`taskcomplexity.tasks.goal_env.compute_reward` for the new goal and the stored action (the
+  action term −Σ aᵢ² of a dense task) and the termination ``‖a − g‖ < threshold``, which it also writes into
   ``("next", "terminated")`` and ``("next", "done")`` of the relabelled rows (a transition that reaches
   its relabelled goal ends the episode, so its target does not bootstrap).
 
@@ -52,14 +52,12 @@ def relabel(task: TaskSpec, td: TensorDictBase) -> torch.Tensor:
     Parameters
     ----------
     td : TensorDict (n,)
-        Needs ``desired_goal`` (the new goal), ``("next", "achieved_goal")``, ``action`` (dense tasks)
-        and ``("next", "truncated")``.
+        Needs ``desired_goal`` (the new goal), ``("next", "achieved_goal")``, ``action`` and
+        ``("next", "truncated")``.
     """
     achieved = td.get(ACHIEVED_GOAL_KEY)
     goal = td.get(GOAL_KEY)
-    reward = compute_reward(task, achieved, goal)
-    if task.reward.kind == "dense":
-        reward = reward - td.get("action").clamp(-1.0, 1.0).pow(2).sum(-1)
+    reward = compute_reward(task, achieved, goal, td.get("action"))
     terminated = goal_reached(task, achieved, goal).unsqueeze(-1)
     td.set_(("next", "terminated"), terminated)
     td.set_(("next", "done"), terminated | td.get(("next", "truncated")))

@@ -9,6 +9,7 @@ from gymnasium import spaces
 
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.tasks.rewards import reward_kind
 from taskcomplexity.tasks.spec import TaskSpec
 
 HER_STRATEGIES = ("future", "final", "episode", "random")
@@ -199,11 +200,12 @@ def sac_skip_reason(task) -> str | None:
 def protocol_variants(task, settings: SACSettings) -> tuple[SACSettings, ...]:
     """The runs sac.md asks for on ``task``: SAC, plus SAC + HER on a sparse task with a goal view.
 
-    Returns ``settings`` with ``her=False`` and, for a sparse reaching task (the only tasks with a
-    sparse reward and a goal-conditioned view), a copy with ``her=True`` (``variant`` "sac" and
-    "sac+her"). A generic gymnasium task gets SAC only.
+    Returns ``settings`` with ``her=False`` and, for a reaching task with a goal view whose whole
+    reward is a function of the goals (:attr:`taskcomplexity.tasks.rewards.RewardKind.goal_reward`:
+    the sparse reward), a copy with ``her=True`` (``variant`` "sac" and "sac+her"). A generic
+    gymnasium task gets SAC only.
     """
     plain = replace(settings, her=False)
-    if has_goal_view(task) and task.reward.kind == "sparse":
+    if has_goal_view(task) and reward_kind(task.reward.kind).goal_reward:
         return plain, replace(settings, her=True)
     return (plain,)

@@ -43,9 +43,9 @@ class BatchedReaching:
         self.size = size
         step_kernel.prepare_kernels()
         dof = task.arm.dof
-        self._dynamics = ArmDynamics(read_arm_urdf(urdf_path(task.arm))).vector()
+        self._arm = ArmDynamics(read_arm_urdf(urdf_path(task.arm))).params()
         self._zone = contact_zone(task, contacts)
-        self._task = step_kernel.task_vector(task)
+        self._task = step_kernel.task_params(task)
         self.joint_angles = torch.zeros(size, dof, dtype=torch.float64)
         self.joint_velocities = torch.zeros(size, dof, dtype=torch.float64)
         self.target = torch.zeros(size, 2, dtype=torch.float64)
@@ -117,7 +117,7 @@ class BatchedReaching:
         """
         action = torch.as_tensor(action, dtype=torch.float64).contiguous()
         step_kernel.step(
-            self._dynamics, self._task, self._zone, self._state, action.numpy(),
+            self._arm, self._task, self._zone, self._state, action.numpy(),
             self.task.arm.time_step, self.task.arm.substeps,
         )
         return self.observation, self.reward, self.done
@@ -150,7 +150,7 @@ class BatchedReaching:
         if self.size % len(weights):
             raise ValueError(f"{self.size} environments do not split evenly over {len(weights)} policies")
         rollout_kernel.rollout(
-            self._dynamics, self._task, self._zone, self._state, weights, layer_sizes,
+            self._arm, self._task, self._zone, self._state, weights, layer_sizes,
             episodes=self.size // len(weights), max_steps=self.task.max_steps, time_step=self.task.arm.time_step,
             substeps=self.task.arm.substeps, activation=activation, output=output, bias=bias, input_bias=input_bias,
         )

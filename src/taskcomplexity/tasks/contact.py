@@ -28,6 +28,8 @@ threshold 1e-7, lateral frictions 0.5 (link) × 1.0 (block).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 
@@ -49,13 +51,63 @@ BLOCK_FRICTION = 1.0  # pybullet_data block.urdf's lateral friction
 P_SINGLE_FRESH = 0.349
 P_SINGLE_CONTINUING = 0.019
 
-# layout of the contact vector (see taskcomplexity.tasks.dynamics.contact_zone)
-MODE, OX, OY, X0, X1, ZONE_RADIUS, HALF_SIDE, HALF_WIDTH, Z_OVERLAP, ERP, SLOP, MU, ITERATIONS, RESIDUAL = range(14)
-BLOCK_ANGLE, WINDOW = 14, 15  # polar angle of the block; |q₁ − angle| beyond which the forearm is far
-SINGLE_FRESH, SINGLE_CONTINUING = 16, 17  # probabilities of a one-sweep solve (see single_sweep)
-CONE = 18  # then CONE_BINS (centre, half-width) pairs: where the forearm must point (see near_block)
-CONE_BINS = 256
-SIZE = CONE + 2 * CONE_BINS
+CONE_BINS = 256  # bins of elbow angle in the table of forearm directions (see near_block)
+NO_CONTACT, HANDOVER, MODEL = 0.0, 1.0, 2.0  # ContactZone.mode
+
+
+class ContactZone(NamedTuple):
+    """The kernels' record of the forearm–block contact (built by
+    :func:`taskcomplexity.tasks.dynamics.contact_zone`; lengths in m, angles in rad).
+
+    Scalars and the cone table in one record: every reader of the zone's geometry also reads the
+    table (:func:`near_block`), and one argument keeps the kernels' signatures short. numba passes the
+    record by value (the scalars as values, the table as an array view).
+    """
+
+    mode: float
+    """NO_CONTACT (no block), HANDOVER (flag the environments that reach the block) or MODEL (contacts act)."""
+    ox: float
+    """Block centre x."""
+    oy: float
+    """Block centre y."""
+    x0: float
+    """Forearm box start along its axis from the elbow (−overhang)."""
+    x1: float
+    """Forearm box end along its axis from the elbow (its length)."""
+    radius: float
+    """Radius of the contact zone around the block."""
+    half_side: float
+    """Half side of the block's square footprint."""
+    half_width: float
+    """Half width of the forearm box."""
+    z_overlap: float
+    """Vertical overlap of the two boxes."""
+    erp: float
+    """Contact error reduction parameter."""
+    slop: float
+    """Linear slop, m."""
+    mu: float
+    """Friction coefficient (product of the two lateral frictions)."""
+    iterations: float
+    """Solver sweeps at most."""
+    residual: float
+    """Squared velocity residual under which the sweeps stop."""
+    block_angle: float
+    """Polar angle of the block."""
+    window: float
+    """|q₁ − block_angle| beyond which the elbow is out of reach."""
+    single_fresh: float
+    """Probability of a one-sweep solve when the block contact is new (see single_sweep)."""
+    single_continuing: float
+    """Probability of a one-sweep solve when the block contact continues."""
+    cones: np.ndarray
+    """(CONE_BINS, 2): per bin of q₁ over block_angle ± window, (centre, half-width) of the forearm
+    directions q₁ + q₂ for which the forearm can be within ``radius`` of the block (see near_block)."""
+
+
+def no_contact() -> ContactZone:
+    """The zone of a task without a block (mode NO_CONTACT)."""
+    return ContactZone(*([0.0] * (len(ContactZone._fields) - 1)), np.zeros((CONE_BINS, 2)))
 
 
 @numba.njit(cache=True)
@@ -87,8 +139,8 @@ def detect(zone, l1, q1, q2, points, ends):
 
     Parameters
     ----------
-    zone : ndarray
-        The contact vector (:func:`taskcomplexity.tasks.dynamics.contact_zone`).
+    zone : ContactZone
+        The contact record (:func:`taskcomplexity.tasks.dynamics.contact_zone`).
     l1 : float
         Upper-arm length (elbow distance from the shoulder), m.
     points : ndarray (2, 3), out
@@ -107,10 +159,10 @@ def detect(zone, l1, q1, q2, points, ends):
     ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
     ux, uy = np.cos(q1 + q2), np.sin(q1 + q2)
     wx, wy = -uy, ux
-    hx = (zone[X1] - zone[X0]) / 2
-    hy = zone[HALF_WIDTH]
-    cx, cy = ex + ux * (zone[X0] + hx), ey + uy * (zone[X0] + hx)
-    ox, oy, b = zone[OX], zone[OY], zone[HALF_SIDE]
+    hx = (zone.x1 - zone.x0) / 2
+    hy = zone.half_width
+    cx, cy = ex + ux * (zone.x0 + hx), ey + uy * (zone.x0 + hx)
+    ox, oy, b = zone.ox, zone.oy, zone.half_side
     dx, dy = cx - ox, cy - oy
     best, kx, ky, arm_face = np.inf, 0.0, 0.0, False
     for axis in range(4):
@@ -128,7 +180,7 @@ def detect(zone, l1, q1, q2, points, ends):
             return 0, 0.0, 0.0  # separated
         if overlap < best:
             best, kx, ky, arm_face = overlap, ax, ay, axis < 2
-    if best > zone[Z_OVERLAP]:
+    if best > zone.z_overlap:
         return 0, 0.0, 0.0  # the vertical axis overlaps least: a vertical normal, no joint effect
     if dx * kx + dy * ky <= 0.0:
         kx, ky = -kx, -ky
@@ -199,18 +251,18 @@ def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt, rows, impulse, sin
             row[2] = inv[0] * row[0] + inv[1] * row[1]
             row[3] = inv[1] * row[0] + inv[2] * row[1]
             row[4] = 1.0 / (row[0] * row[2] + row[1] * row[3])
-        depth = points[i, 2] + zone[SLOP]
-        rows[2 * i, 5] = -depth / dt if depth > 0.0 else -zone[ERP] * depth / dt
+        depth = points[i, 2] + zone.slop
+        rows[2 * i, 5] = -depth / dt if depth > 0.0 else -zone.erp * depth / dt
     impulse[:] = 0.0
     du = dv = 0.0
-    for _ in range(1 if single else int(zone[ITERATIONS])):
+    for _ in range(1 if single else int(zone.iterations)):
         residual = 0.0
         for friction in range(2):
             for i in range(count):
                 k = 2 * i + friction
                 row = rows[k]
                 if friction:
-                    limit = zone[MU] * impulse[2 * i]
+                    limit = zone.mu * impulse[2 * i]
                     if limit <= 0.0:
                         continue
                     new = impulse[k] - (row[0] * (u + du) + row[1] * (v + dv)) * row[4]
@@ -222,7 +274,7 @@ def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt, rows, impulse, sin
                 du += row[2] * change
                 dv += row[3] * change
                 residual += (change / row[4]) ** 2
-        if residual <= zone[RESIDUAL]:
+        if residual <= zone.residual:
             break
     return u + du, v + dv
 
@@ -245,15 +297,15 @@ def single_sweep(zone, fresh, q1, q2):
     """
     x = np.sin(q1 * 12.9898 + q2 * 78.233) * 43758.5453
     x -= np.floor(x)
-    return x < (zone[SINGLE_FRESH] if fresh else zone[SINGLE_CONTINUING])
+    return x < (zone.single_fresh if fresh else zone.single_continuing)
 
 
 @numba.njit(cache=True, inline="always")
 def in_reach(zone, q1):
     """Whether the elbow, at shoulder angle q1, is within reach of the block (q₁ within the window)."""
-    d = q1 - zone[BLOCK_ANGLE]
+    d = q1 - zone.block_angle
     d -= 2.0 * np.pi * np.floor(d * (0.5 / np.pi) + 0.5)
-    return abs(d) <= zone[WINDOW]
+    return abs(d) <= zone.window
 
 
 @numba.njit(cache=True, inline="always")
@@ -261,7 +313,7 @@ def near_block(zone, l1, q1, q2):
     """Whether the forearm's box may be in contact range of the block (a conservative test).
 
     First without trigonometry: the elbow must lie within reach of the block, i.e. q₁ within
-    ``zone[WINDOW]`` of the block's polar angle, and the forearm must point at the block, i.e.
+    ``zone.window`` of the block's polar angle, and the forearm must point at the block, i.e.
     q₁ + q₂ within the cone tabulated for that elbow angle; then the distance from the block to the
     forearm's axis segment against the zone radius.
     """
@@ -269,17 +321,17 @@ def near_block(zone, l1, q1, q2):
     # keeps this test cheap: it runs at every physics step)
     if not in_reach(zone, q1):
         return False
-    window = zone[WINDOW]
-    d = q1 - zone[BLOCK_ANGLE]
+    window = zone.window
+    d = q1 - zone.block_angle
     d -= 2.0 * np.pi * np.floor(d * (0.5 / np.pi) + 0.5)
-    k = CONE + 2 * min(int((d + window) * (0.5 * CONE_BINS / window)), CONE_BINS - 1)
-    a = q1 + q2 - zone[k]
+    k = min(int((d + window) * (0.5 * CONE_BINS / window)), CONE_BINS - 1)
+    a = q1 + q2 - zone.cones[k, 0]
     a -= 2.0 * np.pi * np.floor(a * (0.5 / np.pi) + 0.5)
-    if abs(a) > zone[k + 1]:
+    if abs(a) > zone.cones[k, 1]:
         return False
     ex, ey = l1 * np.cos(q1), l1 * np.sin(q1)
     dx, dy = np.cos(q1 + q2), np.sin(q1 + q2)
-    rx, ry = zone[OX] - ex, zone[OY] - ey
-    t = min(max(rx * dx + ry * dy, zone[X0]), zone[X1])
+    rx, ry = zone.ox - ex, zone.oy - ey
+    t = min(max(rx * dx + ry * dy, zone.x0), zone.x1)
     px, py = rx - t * dx, ry - t * dy
-    return px * px + py * py < zone[ZONE_RADIUS] * zone[ZONE_RADIUS]
+    return px * px + py * py < zone.radius * zone.radius

@@ -32,9 +32,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
+
+if TYPE_CHECKING:
+    from taskcomplexity.tasks.contact import ContactZone
 
 INFORMATIVE = 1e-9
 """rad/s: one sweep and convergence differing by more than this make a step informative (float noise is
@@ -97,7 +101,7 @@ class _ProbingClient:
     call goes to the real client.
     """
 
-    def __init__(self, env, shadow, tally: _Tally, zone: np.ndarray):
+    def __init__(self, env, shadow, tally: _Tally, zone: ContactZone):
         from taskcomplexity.tasks import contact
 
         self._client, self._shadow, self._tally, self._zone = env.client, shadow, tally, zone

@@ -21,6 +21,7 @@ physics steps per task) element-wise tensor operations would spend their time mo
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -32,38 +33,73 @@ LINK_DAMPING = 0.04  # btMultiBody default m_linearDamping = m_angularDamping
 MAX_COORDINATE_VELOCITY = 100.0  # btMultiBody default m_maxCoordinateVelocity, rad/s
 
 
+class ArmParams(NamedTuple):
+    """The kernels' record of an arm's physical parameters (floats; a 1-link arm's link-2 fields are 0).
+
+    numba passes a tuple of floats by value: the compiler keeps the fields in registers across the
+    physics loop (read from an array, they would be reloaded after every store to the state arrays,
+    which keeps the loop from being vectorised: ~5× slower for the 1-link arm).
+    """
+
+    dof: float
+    """Number of links, 1 or 2."""
+    link_damping: float
+    """Bullet's link damping k (linear and angular), 1/s."""
+    max_velocity: float
+    """Bullet's clamp on every joint velocity, rad/s."""
+    mass1: float
+    """Upper arm (link 1) mass, kg."""
+    com1: float
+    """Link 1 centre of mass along its axis from the shoulder, m."""
+    inertia1: float
+    """Link 1 inertia about z through its centre of mass, kg·m²."""
+    joint_damping1: float
+    """Shoulder joint damping, N·m·s/rad."""
+    length1: float
+    """Shoulder to elbow (link 1's next joint), m; 0 for a 1-link arm."""
+    mass2: float = 0.0
+    """Forearm (link 2) mass, kg."""
+    com2: float = 0.0
+    """Link 2 centre of mass along its axis from the elbow, m (0: on the elbow, M constant)."""
+    inertia2: float = 0.0
+    """Link 2 inertia about z through its centre of mass, kg·m²."""
+    joint_damping2: float = 0.0
+    """Elbow joint damping, N·m·s/rad."""
+
+
 @dataclass(frozen=True)
 class ArmDynamics:
-    """Physical parameters of a planar chain, as a flat float64 vector for the kernel.
-
-    Layout: ``[dof, k, vmax, (mass, com, inertia_zz, joint_damping, next_joint) per link]``.
-    """
+    """Physical parameters of a planar chain of one or two links (read from its URDF)."""
 
     links: tuple[LinkDynamics, ...]
     link_damping: float = LINK_DAMPING
     max_velocity: float = MAX_COORDINATE_VELOCITY
 
-    def vector(self) -> np.ndarray:
-        values = [float(len(self.links)), self.link_damping, self.max_velocity]
-        for link in self.links:
-            values += [link.mass, link.com, link.inertia_zz, link.joint_damping, link.next_joint]
-        return np.asarray(values, dtype=np.float64)
+    def params(self) -> ArmParams:
+        """The kernels' :class:`ArmParams` record."""
+        first = self.links[0]
+        values = [float(len(self.links)), self.link_damping, self.max_velocity, first.mass, first.com,
+                  first.inertia_zz, first.joint_damping, first.next_joint]
+        if len(self.links) == 2:
+            second = self.links[1]
+            values += [second.mass, second.com, second.inertia_zz, second.joint_damping]
+        return ArmParams(*(float(v) for v in values))
 
     def mass_matrix(self, q2: float = 0.0) -> np.ndarray:
         """Joint-space mass matrix (kg·m²) at elbow angle ``q2`` (ignored for one link)."""
         out = np.zeros((len(self.links), len(self.links)))
-        _mass_matrix(self.vector(), q2, out)
+        _mass_matrix(self.params(), q2, out)
         return out
 
 
 @numba.njit(cache=True, inline="always")
 def _mass_matrix(p, q2, out):
-    m1, c1, i1 = p[3], p[4], p[5]
-    if p[0] == 1:
+    m1, c1, i1 = p.mass1, p.com1, p.inertia1
+    if p.dof == 1:
         out[0, 0] = i1 + m1 * c1 * c1
         return
-    l1 = p[7]
-    m2, c2, i2 = p[8], p[9], p[10]
+    l1 = p.length1
+    m2, c2, i2 = p.mass2, p.com2, p.inertia2
     cq = np.cos(q2)
     out[0, 0] = i1 + m1 * c1 * c1 + i2 + m2 * (l1 * l1 + c2 * c2 + 2.0 * l1 * c2 * cq)
     out[0, 1] = i2 + m2 * (c2 * c2 + l1 * c2 * cq)
@@ -73,8 +109,8 @@ def _mass_matrix(p, q2, out):
 
 @numba.njit(cache=True, inline="always")
 def _one_link_step(p, q, qd, tau, dt):
-    k, vmax = p[1], p[2]
-    m, c, inertia, b = p[3], p[4], p[5], p[6]
+    k, vmax = p.link_damping, p.max_velocity
+    m, c, inertia, b = p.mass1, p.com1, p.inertia1, p.joint_damping1
     v = c * qd
     force = tau - b * qd - inertia * qd * (k + k * abs(qd)) - c * m * v * (k + k * abs(v))
     qd = qd + dt * force / (inertia + m * c * c)
@@ -84,9 +120,9 @@ def _one_link_step(p, q, qd, tau, dt):
 
 @numba.njit(cache=True, inline="always")
 def _two_link_step(p, q1, q2, u, qd2, tau1, tau2, dt):
-    k, vmax = p[1], p[2]
-    m1, c1, i1, b1, l1 = p[3], p[4], p[5], p[6], p[7]
-    m2, c2, i2, b2 = p[8], p[9], p[10], p[11]
+    k, vmax = p.link_damping, p.max_velocity
+    m1, c1, i1, b1, l1 = p.mass1, p.com1, p.inertia1, p.joint_damping1, p.length1
+    m2, c2, i2, b2 = p.mass2, p.com2, p.inertia2, p.joint_damping2
     w = u + qd2  # absolute angular velocity of the forearm
     # link 1: torque about its centre of mass and force at it
     f1 = tau1 - b1 * u - i1 * u * (k + k * abs(u)) - m1 * c1 * c1 * u * (k + k * abs(c1 * u))
@@ -131,9 +167,9 @@ def _two_link_step_const(p, inv, q1, q2, u, qd2, tau1, tau2, dt):
 
     ``inv`` holds M⁻¹ as (inv11, inv12, inv22); the arithmetic is otherwise the same.
     """
-    k, vmax = p[1], p[2]
-    m1, c1, i1, b1, l1 = p[3], p[4], p[5], p[6], p[7]
-    m2, i2, b2 = p[8], p[10], p[11]
+    k, vmax = p.link_damping, p.max_velocity
+    m1, c1, i1, b1, l1 = p.mass1, p.com1, p.inertia1, p.joint_damping1, p.length1
+    m2, i2, b2 = p.mass2, p.inertia2, p.joint_damping2
     w = u + qd2
     ang = i2 * w * (k + k * abs(w))
     f1 = tau1 - b1 * u - i1 * u * (k + k * abs(u)) - m1 * c1 * c1 * u * (k + k * abs(c1 * u)) - ang
@@ -151,8 +187,9 @@ BLOCK = 256  # environments advanced in lock-step, so the compiler can interleav
 def inverse_mass_matrix(params):
     """M⁻¹ of an arm whose forearm centre of mass is on the elbow, as (inv11, inv12, inv22)."""
     inv = np.zeros(3)
-    if params[0] == 2 and params[9] == 0.0:
-        m1, c1, i1, l1, m2, i2 = params[3], params[4], params[5], params[7], params[8], params[10]
+    if params.dof == 2 and params.com2 == 0.0:
+        m1, c1, i1, l1 = params.mass1, params.com1, params.inertia1, params.length1
+        m2, i2 = params.mass2, params.inertia2
         a11, a12, a22 = i1 + m1 * c1 * c1 + i2 + m2 * l1 * l1, i2, i2
         det = a11 * a22 - a12 * a12
         inv[0], inv[1], inv[2] = a22 / det, -a12 / det, a11 / det
@@ -162,7 +199,7 @@ def inverse_mass_matrix(params):
 @numba.njit(cache=True, inline="always")
 def _inverse_at(params, const_inv, q2):
     """M⁻¹ at elbow angle q2 as (inv11, inv12, inv22) (``const_inv`` when M is constant)."""
-    if params[9] == 0.0:
+    if params.com2 == 0.0:
         return const_inv
     m = np.empty((2, 2))
     _mass_matrix(params, q2, m)
@@ -192,37 +229,38 @@ def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touch
 
     ``a1, a2`` joint angles, ``u, v`` joint velocities, ``t1, t2`` torques of the first physics step
     (``a2, v, t2`` unused by a 1-link arm). ``zone`` (:func:`contact_zone`) selects what happens near
-    the block: mode 0, no block; mode 1, ``touched[j]`` is set when environment j's forearm enters the
-    block's contact zone (for a hand-over); mode 2, contacts act (:mod:`taskcomplexity.tasks.contact`)
-    and ``touched[j]`` is set when one did.
+    the block: mode NO_CONTACT, no block; HANDOVER, ``touched[j]`` is set when environment j's
+    forearm enters the block's contact zone (for a hand-over); MODEL, contacts act
+    (:mod:`taskcomplexity.tasks.contact`) and ``touched[j]`` is set when one did.
 
     Every physics step is a contact-free step of all n environments, then a cheap test of which
     elbows are within reach of the block, then the exact work for those few.
     """
     n = a1.shape[0]
-    two_links = params[0] == 2
-    const = two_links and params[9] == 0.0
-    mode = int(zone[0]) if two_links else 0
-    l1 = params[7]
-    b1, b2 = np.empty(n if mode == 2 else 0), np.empty(n if mode == 2 else 0)
-    reach = np.zeros(n if mode > 0 else 0, dtype=np.bool_)
-    was = np.zeros(n if mode == 2 else 0, dtype=np.bool_)  # block contact at the previous physics step
+    two_links = params.dof == 2
+    const = two_links and params.com2 == 0.0
+    mode = zone.mode if two_links else contact.NO_CONTACT
+    model, handover = mode == contact.MODEL, mode == contact.HANDOVER
+    l1 = params.length1
+    b1, b2 = np.empty(n if model else 0), np.empty(n if model else 0)
+    reach = np.zeros(n if model or handover else 0, dtype=np.bool_)
+    was = np.zeros(n if model else 0, dtype=np.bool_)  # block contact at the previous physics step
     points, ends, rows, impulse = contact.scratch()
     for s in range(substeps):
         on = 1.0 if s == 0 else 0.0  # the torque acts in the first physics step only
-        if mode == 2:  # detection happens at the physics step's starting pose
+        if model:  # detection happens at the physics step's starting pose
             b1[:] = a1
             b2[:] = a2
             for j in range(n):
                 reach[j] = contact.in_reach(zone, a1[j])
         _free_step(params, inv, const, two_links, a1, a2, u, v, t1, t2, on, dt)
-        if mode == 1:
+        if handover:
             for j in range(n):
                 reach[j] = contact.in_reach(zone, a1[j])
             for j in range(n):
                 if reach[j] and not touched[j]:
                     touched[j] = contact.near_block(zone, l1, a1[j], a2[j])
-        elif mode == 2:
+        elif model:
             for j in range(n):
                 if not reach[j] or not contact.near_block(zone, l1, b1[j], b2[j]):
                     was[j] = False
@@ -242,16 +280,16 @@ def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touch
 
 
 CONTACT_BREAKING_THRESHOLD = 0.02  # PyBullet's default, m
-CONTACT_MODES = {"pybullet": 1.0, "model": 2.0}
-NO_OBSTACLE = np.zeros(contact.SIZE)
+CONTACT_MODES = {"pybullet": contact.HANDOVER, "model": contact.MODEL}
 
 
-def contact_zone(task, contacts: str = "pybullet") -> np.ndarray:
-    """Kernel parameters of the forearm–block contact (layout: :mod:`taskcomplexity.tasks.contact`).
+def contact_zone(task, contacts: str = "pybullet") -> contact.ContactZone:
+    """Kernel record of the forearm–block contact (:class:`taskcomplexity.tasks.contact.ContactZone`).
 
-    ``contacts`` is ``"pybullet"`` (mode 1: flag the environments whose forearm enters the contact
-    zone, for a hand-over to PyBullet) or ``"model"`` (mode 2: contacts act, as
-    :mod:`~taskcomplexity.tasks.contact` models them). The forearm box spans x ∈ [x₀, x₁] = [−overhang,
+    ``contacts`` is ``"pybullet"`` (mode HANDOVER: flag the environments whose forearm enters the
+    contact zone, for a hand-over to PyBullet) or ``"model"`` (mode MODEL: contacts act, as
+    :mod:`~taskcomplexity.tasks.contact` models them); a task without a block gets
+    :func:`~taskcomplexity.tasks.contact.no_contact`. The forearm box spans x ∈ [x₀, x₁] = [−overhang,
     length] along its axis from the elbow; the zone radius bounds the box's half-diagonal section
     plus the block's half-diagonal plus PyBullet's contact breaking threshold (0.02 m), so every
     physical contact of the two boxes is inside it.
@@ -262,40 +300,33 @@ def contact_zone(task, contacts: str = "pybullet") -> np.ndarray:
 
     obstacle = task.arm.obstacle
     if obstacle is None:
-        return NO_OBSTACLE
+        return contact.no_contact()
     if contacts not in CONTACT_MODES:
         raise ValueError(f"contacts must be one of {list(CONTACT_MODES)}, got {contacts!r}")
-    zone = np.zeros_like(NO_OBSTACLE)
     half_side = obstacle.scale * BLOCK_FOOTPRINT / 2
-    zone[contact.MODE] = CONTACT_MODES[contacts]
-    zone[contact.OX], zone[contact.OY] = obstacle.position
-    zone[contact.X0], zone[contact.X1] = -LINK_OVERHANG, task.arm.links[1].length
+    ox, oy = obstacle.position
     radius = LINK_WIDTH / 2 * np.sqrt(2) + half_side * np.sqrt(2) + CONTACT_BREAKING_THRESHOLD + 0.005
-    zone[contact.ZONE_RADIUS] = radius
-    zone[contact.HALF_SIDE] = half_side
-    zone[contact.HALF_WIDTH] = LINK_WIDTH / 2
     base_z = ARM_BASE_POSITION[2]
     block_half_height = obstacle.scale * BLOCK_LENGTH / 2
-    zone[contact.Z_OVERLAP] = min(base_z + LINK_WIDTH / 2, obstacle.height + block_half_height) - max(
+    z_overlap = min(base_z + LINK_WIDTH / 2, obstacle.height + block_half_height) - max(
         base_z - LINK_WIDTH / 2, obstacle.height - block_half_height
     )
-    zone[contact.ERP] = contact.CONTACT_ERP
-    zone[contact.SLOP] = contact.LINEAR_SLOP
-    zone[contact.MU] = contact.LINK_FRICTION * contact.BLOCK_FRICTION
-    zone[contact.ITERATIONS] = contact.SOLVER_ITERATIONS
-    zone[contact.RESIDUAL] = contact.RESIDUAL_THRESHOLD
-    zone[contact.SINGLE_FRESH] = contact.P_SINGLE_FRESH
-    zone[contact.SINGLE_CONTINUING] = contact.P_SINGLE_CONTINUING
     # the elbow (at l₁ from the shoulder) must be within reach of the block: the law of cosines
     # bounds |q₁ − block angle| (plus a hair for rounding)
     l1, rho = task.arm.links[0].length, float(np.hypot(*obstacle.position))
     reach = max(LINK_OVERHANG, task.arm.links[1].length) + radius
     cosine = (l1 * l1 + rho * rho - reach * reach) / (2 * l1 * rho)
-    zone[contact.BLOCK_ANGLE] = float(np.arctan2(obstacle.position[1], obstacle.position[0]))
-    zone[contact.WINDOW] = float(np.arccos(cosine)) + 1e-6 if cosine > -1.0 else 4.0
-    zone[contact.CONE :] = _pointing_cones(l1, obstacle.position, zone[contact.BLOCK_ANGLE], zone[contact.WINDOW],
-                                           radius).ravel()
-    return zone
+    block_angle = float(np.arctan2(obstacle.position[1], obstacle.position[0]))
+    window = float(np.arccos(cosine)) + 1e-6 if cosine > -1.0 else 4.0
+    return contact.ContactZone(
+        mode=CONTACT_MODES[contacts], ox=float(ox), oy=float(oy), x0=-LINK_OVERHANG,
+        x1=float(task.arm.links[1].length), radius=float(radius), half_side=float(half_side),
+        half_width=LINK_WIDTH / 2, z_overlap=float(z_overlap), erp=contact.CONTACT_ERP, slop=contact.LINEAR_SLOP,
+        mu=contact.LINK_FRICTION * contact.BLOCK_FRICTION, iterations=float(contact.SOLVER_ITERATIONS),
+        residual=contact.RESIDUAL_THRESHOLD, block_angle=block_angle, window=window,
+        single_fresh=contact.P_SINGLE_FRESH, single_continuing=contact.P_SINGLE_CONTINUING,
+        cones=np.ascontiguousarray(_pointing_cones(l1, obstacle.position, block_angle, window, float(radius))),
+    )
 
 
 def _pointing_cones(l1: float, block, angle: float, window: float, radius: float) -> np.ndarray:

@@ -19,11 +19,13 @@ The split loses nothing: :func:`join_observation` rebuilds the task observation 
 within floating-point rounding, everything else exactly — so a goal-conditioned agent can see exactly
 the inputs of the plain agent, for any (relabelled) goal.
 
-:func:`compute_reward` is the task's own reward function of the goals:
+:func:`compute_reward` is the task's own reward (:func:`taskcomplexity.tasks.rewards.reward`) with
+d = ‖a − g‖:
 
-- sparse: r = 0 if ‖a − g‖ < threshold else −1 (the whole reward);
-- dense: r = −‖a − g‖² only. The dense reward's action term −Σ aᵢ² is not a function of the goals;
-  whoever relabels a dense transition must add it from the stored action (the HER buffer of
+- sparse: r = 0 if ‖a − g‖ < threshold else −1 (the whole reward: the kind's
+  :attr:`~taskcomplexity.tasks.rewards.RewardKind.goal_reward`);
+- dense: r = −‖a − g‖² without the action; the action term −Σ aᵢ² is not a function of the goals,
+  so whoever relabels a dense transition passes the stored action (the HER buffer of
   ``taskcomplexity.rl.her`` does). The obstacle task's collision and proximity terms are not
   goal-dependent either, and its goal view is not provided (HER is a sparse-reward method).
 
@@ -43,6 +45,7 @@ import numpy as np
 from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.tasks import rewards
 from taskcomplexity.tasks.mechanics import xp_of
 from taskcomplexity.tasks.registration import MAX_EPISODE_STEPS
 from taskcomplexity.tasks.spec import STUDY_TASKS, TaskSpec, gym_id, make_task
@@ -132,29 +135,53 @@ def goal_distance(achieved_goal, desired_goal):
     return xp.sqrt(delta[..., 0] ** 2 + delta[..., 1] ** 2)
 
 
-def compute_reward(task: TaskSpec, achieved_goal, desired_goal):
-    """The goal-dependent reward of ``task``, vectorised over leading dimensions.
+def _numpy(x) -> np.ndarray:
+    """``x`` as a float64 NumPy array (a torch tensor is copied off its device)."""
+    if xp_of(x) is not np:
+        x = x.detach().cpu().numpy()
+    return np.asarray(x, dtype=np.float64)
+
+
+def _like(values: np.ndarray, x):
+    """``values`` in the array type of ``x``: a tensor on its device (in its dtype, for floats)."""
+    if xp_of(x) is np:
+        return values
+    import torch
+
+    out = torch.as_tensor(values, device=x.device)
+    return out.to(x.dtype) if out.is_floating_point() else out
+
+
+def compute_reward(task: TaskSpec, achieved_goal, desired_goal, action=None):
+    """The reward of ``task`` for goals (and actions), vectorised over leading dimensions.
 
     Parameters
     ----------
     achieved_goal, desired_goal : array (..., 2)
-        Metres.
+        Metres (NumPy arrays or torch tensors).
+    action : array (..., dof), optional
+        The actions (clipped to [−1, 1] here); without them a dense reward has no action term.
 
     Returns
     -------
     array (...,)
-        sparse: 0 where ‖a − g‖ < threshold, −1 elsewhere (the task's whole reward);
-        dense: −‖a − g‖² (the action term −Σ aᵢ² must be added by the caller, see the module notes).
+        :func:`taskcomplexity.tasks.rewards.reward` of d = ‖a − g‖, in the type of ``achieved_goal``:
+        sparse, 0 where ‖a − g‖ < threshold, −1 elsewhere (the task's whole reward); dense,
+        −‖a − g‖² − Σ aᵢ² (without ``action``: −‖a − g‖², see the module notes).
     """
-    distance = goal_distance(achieved_goal, desired_goal)
-    if task.reward.kind == "sparse":
-        return (distance < task.reward.threshold) * 1.0 - 1.0
-    return -(distance**2)
+    distance = _numpy(goal_distance(achieved_goal, desired_goal))
+    effort = 0.0 if action is None else (np.clip(_numpy(action), -1.0, 1.0) ** 2).sum(-1)
+    return _like(rewards.rewards(task.reward.kind, distance, task.reward.threshold, effort), achieved_goal)
 
 
 def goal_reached(task: TaskSpec, achieved_goal, desired_goal):
-    """The task's success (and termination) condition ‖a − g‖ < threshold; bool array (...,)."""
-    return goal_distance(achieved_goal, desired_goal) < task.reward.threshold
+    """The task's success (and termination) condition ‖a − g‖ < threshold; bool array (...,).
+
+    :func:`taskcomplexity.tasks.rewards.success` on the float64 distance, as :func:`compute_reward`
+    sees it (so the two agree on every goal), in the type of ``achieved_goal``.
+    """
+    distance = _numpy(goal_distance(achieved_goal, desired_goal))
+    return _like(np.asarray(rewards.success(distance, task.reward.threshold)), achieved_goal)
 
 
 class GoalReachingEnv(gymnasium.ObservationWrapper):

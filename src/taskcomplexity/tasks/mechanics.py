@@ -1,9 +1,10 @@
 """Task semantics shared by both backends: angle wrapping, kinematics, observations, rewards.
 
-Every function works on NumPy arrays (the PyBullet backend, one environment) and on torch tensors
-(the batched backend, many environments) alike: leading dimensions are batch dimensions and the
-array library is picked from the input. This is the single definition of what an agent observes
-and earns; only the integration of the dynamics differs between backends.
+The functions work on NumPy arrays (the PyBullet backend, one environment) and on torch tensors
+(the batched backend's reset, many environments) alike: leading dimensions are batch dimensions and
+the array library is picked from the input; :func:`reward_terms` takes NumPy arrays and evaluates
+:func:`taskcomplexity.tasks.rewards.reward`, the one definition of what an agent earns. This is the
+definition of what an agent observes; only the integration of the dynamics differs between backends.
 
 Units: metres, radians, seconds.
 """
@@ -19,6 +20,7 @@ try:  # torch is a hard dependency of the package, but keep this module importab
 except ImportError:  # pragma: no cover
     torch = None
 
+from taskcomplexity.tasks import rewards
 from taskcomplexity.tasks.spec import LINK_WIDTH, ArmSpec, TaskSpec
 
 TWO_PI = 2.0 * math.pi
@@ -194,7 +196,7 @@ def forearm_clearance(task: TaskSpec, elbow, effector):
 
 
 def reward_terms(task: TaskSpec, action, distance, upper_clearance=None, forearm_clearance_=None):
-    """Per-step reward and its terms.
+    """Per-step reward and its terms, by :func:`taskcomplexity.tasks.rewards.reward` (NumPy arrays).
 
     Parameters
     ----------
@@ -209,29 +211,32 @@ def reward_terms(task: TaskSpec, action, distance, upper_clearance=None, forearm
     -------
     reward : array (...,)
     terms : dict of array (...,)
-        ``distance``, ``action`` (dense), ``collision`` and ``proximity`` (obstacle); ``success``.
-        The reward is the sum of the signed terms.
+        The signed terms the reward kind reports (:attr:`~taskcomplexity.tasks.rewards.RewardKind.terms`:
+        ``distance``, ``action``, and with an obstacle ``collision`` and ``proximity`` for a dense
+        reward), and ``success``.
     collision : array (...,) of bool
         Whether the obstacle was hit (all False without an obstacle).
     """
-    xp = xp_of(distance)
-    success = distance < task.reward.threshold
-    collision = xp.zeros_like(success)
-    if task.reward.kind == "sparse":
-        reward = success * 1.0 - 1.0
-        return reward, {"success": success}, collision
-    terms = {"distance": -(distance**2), "action": -(action**2).sum(-1)}
+    kind = rewards.reward_kind(task.reward.kind)
+    distance = np.asarray(distance, dtype=np.float64)
+    effort = (np.asarray(action, dtype=np.float64) ** 2).sum(-1)
+    success = rewards.success(distance, task.reward.threshold)
     obstacle = task.arm.obstacle
-    if obstacle is not None:
-        collision = (upper_clearance <= obstacle.collision_distance) | (
-            forearm_clearance_ <= obstacle.collision_distance
-        )
-        terms["collision"] = -obstacle.collision_penalty * (collision * 1.0)
-        terms["proximity"] = -obstacle.proximity_weight * (
-            xp.exp(-obstacle.proximity_decay * upper_clearance)
-            + xp.exp(-obstacle.proximity_decay * forearm_clearance_)
-        )
-    reward = sum(terms.values())
+    if obstacle is None:
+        collision, near, penalty, weight = np.zeros_like(success), 0.0, 0.0, 0.0
+    else:
+        upper = np.asarray(upper_clearance, dtype=np.float64)
+        forearm = np.asarray(forearm_clearance_, dtype=np.float64)
+        collision = rewards.collision(upper, forearm, obstacle.collision_distance)
+        near = rewards.proximity(upper, forearm, obstacle.proximity_decay)
+        penalty, weight = obstacle.collision_penalty, obstacle.proximity_weight
+    reward = rewards.rewards(kind.name, distance, task.reward.threshold, effort, collision, near, penalty, weight)
+    signed = rewards.shaped_terms(distance, effort, np.asarray(collision, dtype=np.float64), near, penalty, weight)
+    terms = {
+        name: value
+        for name, value in zip(rewards.TERMS, signed, strict=True)
+        if name in kind.terms and (obstacle is not None or name not in rewards.OBSTACLE_TERMS)
+    }
     terms["success"] = success
     return reward, terms, collision
 

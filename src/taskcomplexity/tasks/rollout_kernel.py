@@ -23,8 +23,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix
-from taskcomplexity.tasks.step_kernel import arm_vector, step_block
+from taskcomplexity.tasks.contact import ContactZone
+from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, inverse_mass_matrix
+from taskcomplexity.tasks.step_kernel import TaskParams, gather, step_block
 
 
 @numba.njit(cache=True, inline="always")
@@ -146,15 +147,15 @@ def forward(w, layer_sizes, bias, relu, tanh_output, h, g, n):
 
 
 @numba.njit(parallel=True, cache=True)
-def _rollout(dynamics, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_bias, episodes, max_steps, q,
-             qd, target, active, returns, steps, success, handoff, contact, obs, reward, done, action, dt, substeps):
+def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_bias, episodes, max_steps, q,
+             qd, target, active, returns, steps, success, handoff, contacted, obs, reward, done, action, dt, substeps):
     n_pol = q.shape[0] // episodes
     n_obs = obs.shape[1]
     n_out = layer_sizes[-1]
     width = 0
     for size in layer_sizes:
         width = max(width, size)
-    inv = inverse_mass_matrix(dynamics)
+    inv = inverse_mass_matrix(arm)
     blocks = (episodes + BLOCK - 1) // BLOCK
     for job in numba.prange(n_pol * blocks):
         policy = job // blocks
@@ -166,11 +167,7 @@ def _rollout(dynamics, p, zone, weights, layer_sizes, bias, relu, tanh_output, i
         if input_bias:
             h[n_obs] = 1.0
         for _ in range(max_steps):
-            n = 0
-            for e in range(lo, hi):
-                if active[e] and steps[e] < max_steps:
-                    index[n] = e
-                    n += 1
+            n = gather(active, steps, max_steps, lo, hi, index)
             if n == 0:
                 break
             for i in range(n_obs):
@@ -184,14 +181,14 @@ def _rollout(dynamics, p, zone, weights, layer_sizes, bias, relu, tanh_output, i
                     action[index[j], k] = row[j]
             if input_bias:  # the forward pass may have used h's constant row as a work row
                 h[n_obs] = 1.0
-            step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success,
-                       handoff, contact, obs, reward, done, dt, substeps)
+            step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success,
+                       handoff, contacted, obs, reward, done, dt, substeps)
 
 
 def rollout(
-    dynamics: np.ndarray,
-    task: np.ndarray,
-    zone: np.ndarray,
+    arm: ArmParams,
+    task: TaskParams,
+    zone: ContactZone,
     state: dict[str, np.ndarray],
     weights: np.ndarray,
     layer_sizes: np.ndarray,
@@ -209,7 +206,7 @@ def rollout(
 
     Parameters
     ----------
-    dynamics, task, zone, state
+    arm, task, zone, state
         As in :func:`taskcomplexity.tasks.step_kernel.step`; ``reward`` and ``done`` end up holding
         each environment's last step.
     weights : ndarray (P, S) float64
@@ -239,7 +236,7 @@ def rollout(
                          f"{state['observation'].shape[1]} (input bias {input_bias}) and {dof} actions")
     action = np.zeros((n_env, dof))
     _rollout(
-        arm_vector(dynamics), task, zone, np.ascontiguousarray(weights, dtype=np.float64),
+        arm, task, zone, np.ascontiguousarray(weights, dtype=np.float64),
         np.ascontiguousarray(layer_sizes, dtype=np.int64), bool(bias), activation == "relu", output == "tanh",
         bool(input_bias), int(episodes), int(max_steps), q, state["joint_velocities"], state["target"],
         state["active"], state["returns"], state["steps"], state["success"], state["handoff"], state["contact"],

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, replace
 
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.tasks.rewards import KINDS, REWARD_KINDS, reward_kind
 
 ENTRY_POINT = "taskcomplexity.tasks.pybullet_env:ReachingEnv"
 """Where the reaching tasks' reference env lives (loaded by gymnasium only when an env is made)."""
@@ -191,16 +192,14 @@ class ArmSpec:
             self.obstacle.validate("arm.obstacle")
 
 
-REWARD_KINDS = ("dense", "sparse")
-
-
 @dataclass(frozen=True)
 class RewardSpec:
     """Per-step reward.
 
     Attributes
     ----------
-    kind : {'dense', 'sparse'}
+    kind : str
+        One of :data:`taskcomplexity.tasks.rewards.REWARD_KINDS` (the formulas are in that module):
         dense: r = −(d² + Σ aᵢ²) (+ obstacle terms); sparse: r = 0 if d < threshold else −1.
     threshold : float
         Success distance, metres; the episode terminates when d < threshold.
@@ -210,8 +209,7 @@ class RewardSpec:
     threshold: float = 0.05
 
     def validate(self) -> None:
-        if self.kind not in REWARD_KINDS:
-            raise ConfigError(f"reward.kind must be one of {list(REWARD_KINDS)}, got {self.kind!r}")
+        reward_kind(self.kind)
         _positive("reward.threshold", self.threshold)
 
 
@@ -285,10 +283,11 @@ class TaskSpec:
         self.reward.validate()
         if self.max_steps < 1:
             raise ConfigError(f"max_steps must be an integer >= 1, got {self.max_steps}")
-        if self.arm.obstacle is not None and self.reward.kind != "dense":
+        if self.arm.obstacle is not None and not reward_kind(self.reward.kind).obstacle:
+            allowed = [kind.name for kind in KINDS.values() if kind.obstacle]
             raise ConfigError(
                 f"reward={self.reward.kind} is not available for arm={self.arm.name} "
-                "(allowed: dense; the obstacle task is defined with a dense reward only)"
+                f"(allowed: {', '.join(allowed)}: the reward kinds defined with an obstacle)"
             )
         return self
 
@@ -335,7 +334,7 @@ TWO_LINK = ArmSpec(
 TWO_LINK_OBSTACLE = replace(TWO_LINK, name="two_link_obstacle", obstacle=ObstacleSpec())
 
 ARMS: dict[str, ArmSpec] = {a.name: a for a in (ONE_LINK_1M0, ONE_LINK_1M65, TWO_LINK, TWO_LINK_OBSTACLE)}
-REWARDS: dict[str, RewardSpec] = {"dense": RewardSpec("dense"), "sparse": RewardSpec("sparse")}
+REWARDS: dict[str, RewardSpec] = {kind: RewardSpec(kind) for kind in REWARD_KINDS}
 
 # The seven tasks of the study, in the order tables list them.
 STUDY_TASKS: tuple[tuple[str, str], ...] = (

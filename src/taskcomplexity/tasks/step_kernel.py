@@ -1,11 +1,17 @@
 """The batched backend's environment step as one fused numba kernel.
 
 Per environment, one call does what ``ReachingEnv.step`` does: clip the action, integrate the
-physics (:func:`taskcomplexity.tasks.dynamics.integrate_block`), then observe and reward exactly as
-:mod:`taskcomplexity.tasks.mechanics` defines it (observation, distance d, success, the obstacle's
-clearances d₁ and d₂, collision), and keep the episode bookkeeping (return, length, done).
+physics (:func:`taskcomplexity.tasks.dynamics.integrate_block`), then observe exactly as
+:mod:`taskcomplexity.tasks.mechanics` defines it (observation, distance d, the obstacle's clearances
+d₁ and d₂), reward by :func:`taskcomplexity.tasks.rewards.reward` (success, collision and the
+reward, the function the PyBullet reference evaluates too), and keep the episode bookkeeping
+(return, length, done).
 
-:mod:`~taskcomplexity.tasks.mechanics` stays the one definition of the task's semantics: it is what
+The task's parameters reach the kernels as named records of floats (:class:`TaskParams`,
+:class:`~taskcomplexity.tasks.dynamics.ArmParams`, :class:`~taskcomplexity.tasks.contact.ContactZone`):
+numba passes them by value, so their fields stay in registers.
+
+:mod:`~taskcomplexity.tasks.mechanics` stays the definition of what the agent observes: it is what
 the PyBullet reference runs, and ``tests/tasks/test_step_kernel.py`` holds this kernel to it on
 random states. The kernel exists for speed: at the paper's scale the same arithmetic as ~40
 separate tensor operations per step spent most of its time moving memory.
@@ -16,15 +22,18 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
-from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix
+from taskcomplexity.tasks import rewards
+from taskcomplexity.tasks.contact import HANDOVER, ContactZone
+from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, integrate_block, inverse_mass_matrix
 from taskcomplexity.tasks.mechanics import BLOCK_FOOTPRINT, COLLISION_MARGIN, TWO_PI
 from taskcomplexity.tasks.spec import LINK_WIDTH, TaskSpec
 
-KERNEL_MODULES = ("step_kernel", "rollout_kernel", "dynamics", "contact", "mechanics")
+KERNEL_MODULES = ("step_kernel", "rollout_kernel", "dynamics", "contact", "mechanics", "rewards")
 
 
 def drop_stale_kernels(directory: Path | None = None) -> bool:
@@ -67,41 +76,93 @@ def prepare_kernels() -> None:
     numba.config.THREADING_LAYER = "workqueue"
 
 
-# layout of the task vector
-DOF, ROUND, L1, L2, THRESHOLD, SPARSE, SCALE1, SCALE2 = range(8)
-OBSTACLE, OX, OY, REACH, COLLIDE, PENALTY, WEIGHT, DECAY, POINTS = range(8, 17)
-BLOCK_HALF, HALF_X, HALF_Y, CX = range(17, 21)
-TASK_VECTOR_SIZE = 21
+class TaskParams(NamedTuple):
+    """The kernels' record of a task's semantics (floats; lengths in m, torques in N·m).
+
+    A tuple of floats: numba passes it by value and the compiler keeps the fields in registers.
+    Without an obstacle the obstacle's fields are 0.
+    """
+
+    dof: float
+    """Number of links, 1 or 2."""
+    round_scale: float
+    """10^decimals where the task rounds the observed angles (to 1/round_scale rad), else 0."""
+    length1: float
+    """Upper arm length, m."""
+    length2: float
+    """Forearm length, m (0 for a 1-link arm)."""
+    threshold: float
+    """Success distance, m."""
+    reward_kind: float
+    """:attr:`taskcomplexity.tasks.rewards.RewardKind.code` of the task's reward."""
+    torque_scale1: float
+    """Shoulder torque per unit action, N·m."""
+    torque_scale2: float
+    """Elbow torque per unit action, N·m (0 for a 1-link arm)."""
+    obstacle: float
+    """1 with an obstacle, else 0."""
+    obstacle_x: float
+    """Block centre x, m."""
+    obstacle_y: float
+    """Block centre y, m."""
+    reach: float
+    """r_o + t_o/2: what d₂ subtracts from the forearm's distance to the block centre, m."""
+    collision_distance: float
+    """A clearance at or below this is a collision, m."""
+    collision_penalty: float
+    """Reward penalty of a collision."""
+    proximity_weight: float
+    """Weight of the proximity term."""
+    proximity_decay: float
+    """Decay of the proximity term, 1/m."""
+    segment_points: float
+    """The forearm is sampled at k = 0 … segment_points for d₂."""
+    block_half: float
+    """Half side of the block's footprint core (shrunk by the collision margin), m."""
+    link_half_x: float
+    """Half length of link 1's box core, m."""
+    link_half_y: float
+    """Half width of link 1's box core, m."""
+    link_centre: float
+    """Centre of link 1's box along its axis from the shoulder, m."""
 
 
-def task_vector(task: TaskSpec) -> np.ndarray:
-    """The task's semantics as a flat float64 vector for the kernel (layout: the constants above)."""
+def task_params(task: TaskSpec) -> TaskParams:
+    """The kernels' :class:`TaskParams` record of ``task``."""
     arm = task.arm
-    p = np.zeros(TASK_VECTOR_SIZE)
-    p[DOF] = arm.dof
-    p[ROUND] = 10.0**arm.angle_decimals if task.rounds_angles else 0.0
-    p[L1] = arm.links[0].length
-    p[L2] = arm.links[1].length if arm.dof == 2 else 0.0
-    p[THRESHOLD] = task.reward.threshold
-    p[SPARSE] = 1.0 if task.reward.kind == "sparse" else 0.0
-    p[SCALE1] = arm.torque_scale[0]
-    p[SCALE2] = arm.torque_scale[1] if arm.dof == 2 else 0.0
+    two = arm.dof == 2
+    values = dict(
+        dof=float(arm.dof),
+        round_scale=10.0**arm.angle_decimals if task.rounds_angles else 0.0,
+        length1=float(arm.links[0].length),
+        length2=float(arm.links[1].length) if two else 0.0,
+        threshold=float(task.reward.threshold),
+        reward_kind=rewards.reward_kind(task.reward.kind).code,
+        torque_scale1=float(arm.torque_scale[0]),
+        torque_scale2=float(arm.torque_scale[1]) if two else 0.0,
+    )
     obstacle = arm.obstacle
-    if obstacle is not None:
-        link = arm.links[0]
-        p[OBSTACLE] = 1.0
-        p[OX], p[OY] = obstacle.position
-        p[REACH] = obstacle.obstacle_radius + obstacle.link_thickness / 2
-        p[COLLIDE] = obstacle.collision_distance
-        p[PENALTY] = obstacle.collision_penalty
-        p[WEIGHT] = obstacle.proximity_weight
-        p[DECAY] = obstacle.proximity_decay
-        p[POINTS] = obstacle.segment_points
-        p[BLOCK_HALF] = obstacle.scale * BLOCK_FOOTPRINT / 2 - COLLISION_MARGIN
-        p[HALF_X] = link.box_length / 2 - COLLISION_MARGIN
-        p[HALF_Y] = LINK_WIDTH / 2 - COLLISION_MARGIN
-        p[CX] = link.box_origin
-    return p
+    none = {name: 0.0 for name in TaskParams._fields[len(values):]}
+    if obstacle is None:
+        return TaskParams(**values, **none)
+    link = arm.links[0]
+    ox, oy = obstacle.position
+    return TaskParams(
+        **values,
+        obstacle=1.0,
+        obstacle_x=float(ox),
+        obstacle_y=float(oy),
+        reach=float(obstacle.obstacle_radius + obstacle.link_thickness / 2),
+        collision_distance=float(obstacle.collision_distance),
+        collision_penalty=float(obstacle.collision_penalty),
+        proximity_weight=float(obstacle.proximity_weight),
+        proximity_decay=float(obstacle.proximity_decay),
+        segment_points=float(obstacle.segment_points),
+        block_half=float(obstacle.scale * BLOCK_FOOTPRINT / 2 - COLLISION_MARGIN),
+        link_half_x=float(link.box_length / 2 - COLLISION_MARGIN),
+        link_half_y=float(LINK_WIDTH / 2 - COLLISION_MARGIN),
+        link_centre=float(link.box_origin),
+    )
 
 
 @numba.njit(cache=True, inline="always")
@@ -122,7 +183,7 @@ def _point_to_box(px, py, half_x, half_y):
 @numba.njit(cache=True, inline="always")
 def _upper_arm_clearance(p, q1):
     """mechanics.upper_arm_clearance: d₁ from the raw shoulder angle, m, clipped at 0."""
-    half, hx, hy, cx, ox, oy = p[BLOCK_HALF], p[HALF_X], p[HALF_Y], p[CX], p[OX], p[OY]
+    half, hx, hy, cx, ox, oy = p.block_half, p.link_half_x, p.link_half_y, p.link_centre, p.obstacle_x, p.obstacle_y
     c, s = np.cos(q1), np.sin(q1)
     best = np.inf
     for sx in (-1.0, 1.0):
@@ -139,23 +200,23 @@ def _upper_arm_clearance(p, q1):
 @numba.njit(cache=True, inline="always")
 def _forearm_clearance(p, elbow_x, elbow_y, eff_x, eff_y):
     """mechanics.forearm_clearance: d₂ over the sampled forearm points, m, clipped at 0."""
-    points = int(p[POINTS])
+    points = int(p.segment_points)
     nearest = np.inf  # squared: sqrt is monotone and correctly rounded, so sqrt(min) = min(sqrt) exactly
     for k in range(points + 1):
         f = k / points
-        dx = elbow_x + f * (eff_x - elbow_x) - p[OX]
-        dy = elbow_y + f * (eff_y - elbow_y) - p[OY]
+        dx = elbow_x + f * (eff_x - elbow_x) - p.obstacle_x
+        dy = elbow_y + f * (eff_y - elbow_y) - p.obstacle_y
         nearest = min(nearest, dx * dx + dy * dy)
     nearest = np.sqrt(nearest)
-    return max(nearest - p[REACH], 0.0)
+    return max(nearest - p.reach, 0.0)
 
 
 @numba.njit(cache=True, inline="always")
 def _observe(p, q1, q2, qd1, radius, angle, obs):
     """mechanics.observe for one environment: fills ``obs`` and returns (d, elbow, effector)."""
-    scale = p[ROUND]
-    if p[DOF] == 1:
-        l1 = p[L1]
+    scale = p.round_scale
+    if p.dof == 1:
+        l1 = p.length1
         phi = _wrap(q1, scale)
         ex, ey = l1 * np.cos(phi), l1 * np.sin(phi)
         theta = _wrap(angle, scale)
@@ -167,8 +228,8 @@ def _observe(p, q1, q2, qd1, radius, angle, obs):
     a = _wrap(q1, scale)
     b = a + _wrap(q2, scale)
     ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
-    elbow_x, elbow_y = p[L1] * ca, p[L1] * sa
-    ex, ey = elbow_x + p[L2] * cb, elbow_y + p[L2] * sb
+    elbow_x, elbow_y = p.length1 * ca, p.length1 * sa
+    ex, ey = elbow_x + p.length2 * cb, elbow_y + p.length2 * sb
     gx, gy = radius * np.cos(angle), radius * np.sin(angle)
     dx, dy = ex - gx, ey - gy
     obs[0], obs[1], obs[2], obs[3], obs[4] = ca, cb, sa, sb, gx
@@ -176,37 +237,33 @@ def _observe(p, q1, q2, qd1, radius, angle, obs):
     return np.sqrt(dx * dx + dy * dy), elbow_x, elbow_y, ex, ey
 
 
-ARM_VECTOR_SIZE = 13  # ArmDynamics.vector() of a 2-link arm; a 1-link arm's is padded with zeros
-
-
-def arm_vector(dynamics: np.ndarray) -> np.ndarray:
-    """:meth:`~taskcomplexity.tasks.dynamics.ArmDynamics.vector` padded to ARM_VECTOR_SIZE (what the kernels take)."""
-    out = np.zeros(ARM_VECTOR_SIZE)
-    out[: len(dynamics)] = dynamics
-    return out
-
-
 @numba.njit(cache=True, inline="always")
-def _arm_tuple(d):
-    """The arm's parameters as a tuple: values, not memory, so that the compiler keeps them in registers
-    across the physics loop (from an array it must reload them after every store to the state arrays,
-    which keeps the loop from being vectorised: ~5× slower for the 1-link arm). Same arithmetic."""
-    return (d[0], d[1], d[2], d[3], d[4], d[5], d[6], d[7], d[8], d[9], d[10], d[11], d[12])
+def gather(active, steps, max_steps, lo, hi, index):
+    """Pack the environments ``lo … hi−1`` that are active and have taken fewer than ``max_steps`` steps
+    into ``index`` (int64, length ≥ hi − lo), in order; returns their count n."""
+    n = 0
+    for e in range(lo, hi):
+        if active[e] and steps[e] < max_steps:
+            index[n] = e
+            n += 1
+    return n
 
 
 @numba.njit(cache=True)
-def step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success, handoff,
-               contact, obs, reward, done, dt, substeps):
+def step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success, handoff,
+               contacted, obs, reward, done, dt, substeps):
     """One environment step of the n active environments ``index[:n]``, in place (the mechanics of one step).
 
+    ``arm`` is the :class:`~taskcomplexity.tasks.dynamics.ArmParams` record, ``p`` the
+    :class:`TaskParams` record, ``zone`` the :class:`~taskcomplexity.tasks.contact.ContactZone`.
     The physics runs in lock-step over the n environments (:func:`~taskcomplexity.tasks.dynamics.integrate_block`);
     each environment's arithmetic is its own, so its result does not depend on which others share the
     block. Both :func:`step` and the fused RWG rollout (:mod:`taskcomplexity.tasks.rollout_kernel`) call
     this one definition. ``reward[e]`` and ``done[e]`` are set for the stepped environments only.
     """
-    two_links = p[DOF] == 2
-    obstacle = p[OBSTACLE] > 0
-    handover = zone[0] == 1.0
+    two_links = p.dof == 2
+    obstacle = p.obstacle > 0
+    handover = zone.mode == HANDOVER
     a1, u, t1 = np.empty(n), np.empty(n), np.empty(n)
     a2, v, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
     upper = np.zeros(n)
@@ -214,13 +271,13 @@ def step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, 
     for j in range(n):
         e = index[j]
         a1[j], u[j] = q[e, 0], qd[e, 0]
-        t1[j] = min(max(action[e, 0], -1.0), 1.0) * p[SCALE1]
+        t1[j] = min(max(action[e, 0], -1.0), 1.0) * p.torque_scale1
         if two_links:
             a2[j], v[j] = q[e, 1], qd[e, 1]
-            t2[j] = min(max(action[e, 1], -1.0), 1.0) * p[SCALE2]
+            t2[j] = min(max(action[e, 1], -1.0), 1.0) * p.torque_scale2
         if obstacle:
             upper[j] = _upper_arm_clearance(p, a1[j])  # measured before the step
-    integrate_block(_arm_tuple(dynamics), inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
+    integrate_block(arm, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
     for j in range(n):
         e = index[j]
         reward[e], done[e] = 0.0, False
@@ -231,29 +288,27 @@ def step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, 
             active[e] = False
             continue  # its observation is left as it was: no policy acts on it any more
         if touched[j]:
-            contact[e] = True
+            contacted[e] = True
         q[e, 0], qd[e, 0] = a1[j], u[j]
         if two_links:
             q[e, 1], qd[e, 1] = a2[j], v[j]
         d, elbow_x, elbow_y, ex, ey = _observe(
             p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], target[e, 0], target[e, 1], obs[e]
         )
-        hit = d < p[THRESHOLD]
+        c1 = min(max(action[e, 0], -1.0), 1.0)
+        effort = c1 * c1
+        if two_links:
+            c2 = min(max(action[e, 1], -1.0), 1.0)
+            effort += c2 * c2
+        hit = rewards.success(d, p.threshold)
         collision = False
-        if p[SPARSE] > 0:
-            r = (1.0 if hit else 0.0) - 1.0
-        else:
-            c1 = min(max(action[e, 0], -1.0), 1.0)
-            effort = c1 * c1
-            if two_links:
-                c2 = min(max(action[e, 1], -1.0), 1.0)
-                effort += c2 * c2
-            r = -(d * d) + -effort
-            if obstacle:
-                forearm = _forearm_clearance(p, elbow_x, elbow_y, ex, ey)
-                collision = upper[j] <= p[COLLIDE] or forearm <= p[COLLIDE]
-                r += -p[PENALTY] * (1.0 if collision else 0.0)
-                r += -p[WEIGHT] * (np.exp(-p[DECAY] * upper[j]) + np.exp(-p[DECAY] * forearm))
+        near = 0.0
+        if obstacle:
+            forearm = _forearm_clearance(p, elbow_x, elbow_y, ex, ey)
+            collision = rewards.collision(upper[j], forearm, p.collision_distance)
+            near = rewards.proximity(upper[j], forearm, p.proximity_decay)
+        r = rewards.reward(p.reward_kind, d, p.threshold, effort, collision, near, p.collision_penalty,
+                           p.proximity_weight)
         done[e] = hit or collision
         reward[e] = r
         returns[e] += r
@@ -264,30 +319,31 @@ def step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, 
             active[e] = False
 
 
+NO_LIMIT = np.iinfo(np.int64).max  # gather's max_steps when the step count does not limit an episode
+
+
 @numba.njit(parallel=True, cache=True)
-def _step(dynamics, p, zone, q, qd, target, action, active, returns, steps, success, handoff, contact, obs, reward,
+def _step(arm, p, zone, q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward,
           done, dt, substeps):
     n_env = q.shape[0]
-    inv = inverse_mass_matrix(dynamics)
+    inv = inverse_mass_matrix(arm)
     for blk in numba.prange((n_env + BLOCK - 1) // BLOCK):
         lo = blk * BLOCK
-        # the block's active environments, packed: the physics runs on them only
-        index = np.empty(min(BLOCK, n_env - lo), dtype=np.int64)
-        n = 0
-        for e in range(lo, lo + index.shape[0]):
+        hi = min(lo + BLOCK, n_env)
+        for e in range(lo, hi):
             reward[e], done[e] = 0.0, False
-            if active[e]:
-                index[n] = e
-                n += 1
+        # the block's active environments, packed: the physics runs on them only
+        index = np.empty(hi - lo, dtype=np.int64)
+        n = gather(active, steps, NO_LIMIT, lo, hi, index)
         if n > 0:
-            step_block(dynamics, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success,
-                       handoff, contact, obs, reward, done, dt, substeps)
+            step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success,
+                       handoff, contacted, obs, reward, done, dt, substeps)
 
 
 def step(
-    dynamics: np.ndarray,
-    task: np.ndarray,
-    zone: np.ndarray,
+    arm: ArmParams,
+    task: TaskParams,
+    zone: ContactZone,
     state: dict[str, np.ndarray],
     action: np.ndarray,
     time_step: float,
@@ -297,11 +353,11 @@ def step(
 
     Parameters
     ----------
-    dynamics : ndarray
-        :meth:`taskcomplexity.tasks.dynamics.ArmDynamics.vector` of the arm (padded inside).
-    task : ndarray
-        :func:`task_vector` of the task.
-    zone : ndarray
+    arm : ArmParams
+        :meth:`taskcomplexity.tasks.dynamics.ArmDynamics.params` of the arm.
+    task : TaskParams
+        :func:`task_params` of the task.
+    zone : ContactZone
         :func:`taskcomplexity.tasks.dynamics.contact_zone` of the task: with hand-overs, an environment
         whose forearm enters the block's contact zone keeps its state from before the step, is marked
         in ``handoff`` and made inactive; with the contact model, ``contact`` marks the environments
@@ -313,9 +369,13 @@ def step(
         and ``done`` are this step's (0 and False for environments that were not active).
     action : ndarray (B, dof), float64
         Clipped to [−1, 1] inside.
+    time_step : float
+        Physics time step, s.
+    substeps : int
+        Physics steps per environment step.
     """
     _step(
-        arm_vector(dynamics), task, zone, state["joint_angles"], state["joint_velocities"], state["target"], action,
+        arm, task, zone, state["joint_angles"], state["joint_velocities"], state["target"], action,
         state["active"], state["returns"], state["steps"], state["success"], state["handoff"], state["contact"],
         state["observation"], state["reward"], state["done"], float(time_step), int(substeps),
     )
