@@ -151,11 +151,6 @@ def remove_orphans(directory: Path, pattern: str) -> int:
     return removed
 
 
-def outcome(hit: bool, seconds: float) -> str:
-    """A stage's outcome in the one-line summaries: ``cache hit`` or ``computed in 12 s``."""
-    return "cache hit" if hit else f"computed in {seconds:.0f} s"
-
-
 class Cache:
     """The artefact store under ``root`` (``<paths.outputs>/cache``)."""
 

@@ -23,10 +23,9 @@ from taskcomplexity.cli import (
 )
 from taskcomplexity.config import build
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.progress import stage_bar
-from taskcomplexity.stages.cache import Artefact, outcome
-from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, run_diagnostics_stage
-from taskcomplexity.stages.stage_log import StageLog
+from taskcomplexity.stages.cache import Artefact
+from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.stages.stage_log import StageLog, outcome
 from taskcomplexity.stages.task_artefacts import TaskMetrics, study_metrics
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
 from taskcomplexity.study import Study
@@ -58,20 +57,6 @@ def _sac_curves(cfg: Any, cache, results):
             log.info("SAC not trained (sac.enabled=false); no cached curves for %d of %d tasks: %s",
                      len(missing), len(tasks), curves.attrs["sac_command"])
     return curves
-
-
-def _diagnostics(cache, results, settings, diagnostics_settings, *, registry, force) -> dict[str, Artefact]:
-    """Each task's diagnostics artefact (task id → artefact), under one progress bar."""
-    stage = StageLog("diagnostics")
-    with stage_bar("diagnostics", len(results), "task") as bar:
-        for result in results:
-            bar.set_postfix_str(result.task_id)
-            with stage.task(result.task_id) as record:
-                record.artefact, record.hit = run_diagnostics_stage(
-                    cache, result.rwg, settings, diagnostics_settings, registry=registry, force=force)
-            bar.update()
-    stage.summarise()
-    return {r.name: r.artefact for r in stage.records}
 
 
 @dataclass(frozen=True)
@@ -115,8 +100,9 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
     force = bool(cfg.force)
     results = study_metrics(cache, list(requests), settings, names=[e.id for e in entries], registry=registry,
                             force=force, progress=True)
-    diagnostics = _diagnostics(cache, results, settings, build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"),
-                               registry=registry, force=force)
+    diagnostics = study_diagnostics(cache, {r.task_id: r.rwg for r in results}, settings,
+                                    build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"), registry=registry,
+                                    force=force, progress=True)
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
     stage = StageLog("verdict")
     with stage.task(study.name) as record:

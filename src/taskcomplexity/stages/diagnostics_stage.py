@@ -21,8 +21,8 @@ dominated by the 10 POIC searches of the null and the nearest-neighbour estimate
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Mapping
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,10 +35,12 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
-from taskcomplexity.stages.cache import Artefact, Cache, outcome
+from taskcomplexity.progress import stage_bar
+from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import load_returns
+from taskcomplexity.stages.stage_log import StageLog
 
 log = logging.getLogger(__name__)
 
@@ -296,13 +298,21 @@ def study_diagnostics(
     force: bool = False,
     progress: bool = False,
 ) -> dict[str, Artefact]:
-    """The diagnostics artefact of every task, keyed like ``rwg_artefacts`` (task id → RWG artefact)."""
-    found = {}
-    for task_id, rwg in rwg_artefacts.items():
-        started = time.perf_counter()
-        artefact, hit = run_diagnostics_stage(
-            cache, rwg, metrics_settings, diagnostics_settings, registry=registry, force=force, progress=progress
-        )
-        log.info("%-26s diagnostics %s", task_id, outcome(hit, time.perf_counter() - started))
-        found[task_id] = artefact
-    return found
+    """The diagnostics artefact of every task, keyed like ``rwg_artefacts`` (task id → RWG artefact).
+
+    With ``progress``, one bar over the tasks; each task's outcome goes to the run log (DEBUG), the
+    stage's summary line to the console (INFO).
+    """
+    stage = StageLog(STAGE)
+    with stage_bar(STAGE, len(rwg_artefacts), "task") if progress else nullcontext() as bar:
+        for task_id, rwg in rwg_artefacts.items():
+            if bar is not None:
+                bar.set_postfix_str(task_id)
+            with stage.task(task_id) as record:
+                record.artefact, record.hit = run_diagnostics_stage(
+                    cache, rwg, metrics_settings, diagnostics_settings, registry=registry, force=force
+                )
+            if bar is not None:
+                bar.update()
+    stage.summarise()
+    return {r.name: r.artefact for r in stage.records}

@@ -21,8 +21,9 @@ from typing import Any
 import pandas as pd
 
 from taskcomplexity.config import build, result_identity
-from taskcomplexity.stages.cache import Artefact, Cache, outcome
+from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.stage_log import outcome
 
 log = logging.getLogger(__name__)
 

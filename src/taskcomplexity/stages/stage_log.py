@@ -9,9 +9,12 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
-from taskcomplexity.stages.cache import outcome
-
 log = logging.getLogger(__name__)
+
+
+def outcome(hit: bool, seconds: float) -> str:
+    """A stage's outcome in the one-line summaries: ``cache hit`` or ``computed in 12 s``."""
+    return "cache hit" if hit else f"computed in {seconds:.0f} s"
 
 
 @dataclass
