@@ -45,7 +45,7 @@ class BatchedReaching:
         dof = task.arm.dof
         self._arm = ArmDynamics(read_arm_urdf(urdf_path(task.arm))).params()
         self._zone = contact_zone(task, contacts)
-        self._task = step_kernel.task_params(task)
+        self._task = mechanics.task_params(task)
         self.joint_angles = torch.zeros(size, dof, dtype=torch.float64)
         self.joint_velocities = torch.zeros(size, dof, dtype=torch.float64)
         self.target = torch.zeros(size, 2, dtype=torch.float64)

@@ -1,10 +1,18 @@
-"""Task semantics shared by both backends: angle wrapping, kinematics, observations, rewards.
+"""Task semantics shared by both backends: angle wrapping, kinematics, observations, clearances, rewards.
 
-The functions work on NumPy arrays (the PyBullet backend, one environment) and on torch tensors
-(the batched backend's reset, many environments) alike: leading dimensions are batch dimensions and
-the array library is picked from the input; :func:`reward_terms` takes NumPy arrays and evaluates
-:func:`taskcomplexity.tasks.rewards.reward`, the one definition of what an agent earns. This is the
-definition of what an agent observes; only the integration of the dynamics differs between backends.
+Two forms, side by side:
+
+- scalar numba functions of one environment on the :class:`TaskParams` record
+  (:func:`observe_at`, :func:`upper_arm_clearance_at`, :func:`forearm_clearance_at`), which the batched
+  backend's step kernel (:mod:`taskcomplexity.tasks.step_kernel`) inlines;
+- array functions for the PyBullet reference and the batched backend's reset (leading dimensions
+  are batch dimensions). :func:`upper_arm_clearance`, :func:`forearm_clearance` and
+  :func:`reward_terms` take NumPy arrays and evaluate the scalar definitions (the clearances) and
+  :func:`taskcomplexity.tasks.rewards.reward`. :func:`observe` works on NumPy arrays and torch
+  tensors alike (the array library is picked from the input); ``tests/tasks/test_step_kernel.py``
+  holds :func:`observe_at` to it. (It stays array-generic because the batched reset computes its
+  first observation in torch, whose vectorised cos/sin differ from libm's in the last bit for ~0.5 %
+  of states: evaluating the scalar form there would change the batched returns in the last bits.)
 
 Units: metres, radians, seconds.
 """
@@ -12,7 +20,9 @@ Units: metres, radians, seconds.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
+import numba
 import numpy as np
 
 try:  # torch is a hard dependency of the package, but keep this module importable without it
@@ -24,6 +34,168 @@ from taskcomplexity.tasks import rewards
 from taskcomplexity.tasks.spec import LINK_WIDTH, ArmSpec, TaskSpec
 
 TWO_PI = 2.0 * math.pi
+
+
+class TaskParams(NamedTuple):
+    """The kernels' record of a task's semantics (floats; lengths in m, torques in N·m).
+
+    A tuple of floats: numba passes it by value and the compiler keeps the fields in registers.
+    Without an obstacle the obstacle's fields are 0.
+    """
+
+    dof: float
+    """Number of links, 1 or 2."""
+    round_scale: float
+    """10^decimals where the task rounds the observed angles (to 1/round_scale rad), else 0."""
+    length1: float
+    """Upper arm length, m."""
+    length2: float
+    """Forearm length, m (0 for a 1-link arm)."""
+    threshold: float
+    """Success distance, m."""
+    reward_kind: float
+    """:attr:`taskcomplexity.tasks.rewards.RewardKind.code` of the task's reward."""
+    torque_scale1: float
+    """Shoulder torque per unit action, N·m."""
+    torque_scale2: float
+    """Elbow torque per unit action, N·m (0 for a 1-link arm)."""
+    obstacle: float
+    """1 with an obstacle, else 0."""
+    obstacle_x: float
+    """Block centre x, m."""
+    obstacle_y: float
+    """Block centre y, m."""
+    reach: float
+    """r_o + t_o/2: what d₂ subtracts from the forearm's distance to the block centre, m."""
+    collision_distance: float
+    """A clearance at or below this is a collision, m."""
+    collision_penalty: float
+    """Reward penalty of a collision."""
+    proximity_weight: float
+    """Weight of the proximity term."""
+    proximity_decay: float
+    """Decay of the proximity term, 1/m."""
+    segment_points: float
+    """The forearm is sampled at k = 0 … segment_points for d₂."""
+    block_half: float
+    """Half side of the block's footprint core (shrunk by the collision margin), m."""
+    link_half_x: float
+    """Half length of link 1's box core, m."""
+    link_half_y: float
+    """Half width of link 1's box core, m."""
+    link_centre: float
+    """Centre of link 1's box along its axis from the shoulder, m."""
+
+
+def task_params(task: TaskSpec) -> TaskParams:
+    """The kernels' :class:`TaskParams` record of ``task``."""
+    arm = task.arm
+    two = arm.dof == 2
+    values = dict(
+        dof=float(arm.dof),
+        round_scale=10.0**arm.angle_decimals if task.rounds_angles else 0.0,
+        length1=float(arm.links[0].length),
+        length2=float(arm.links[1].length) if two else 0.0,
+        threshold=float(task.reward.threshold),
+        reward_kind=rewards.reward_kind(task.reward.kind).code,
+        torque_scale1=float(arm.torque_scale[0]),
+        torque_scale2=float(arm.torque_scale[1]) if two else 0.0,
+    )
+    obstacle = arm.obstacle
+    none = {name: 0.0 for name in TaskParams._fields[len(values):]}
+    if obstacle is None:
+        return TaskParams(**values, **none)
+    link = arm.links[0]
+    ox, oy = obstacle.position
+    return TaskParams(
+        **values,
+        obstacle=1.0,
+        obstacle_x=float(ox),
+        obstacle_y=float(oy),
+        reach=float(obstacle.obstacle_radius + obstacle.link_thickness / 2),
+        collision_distance=float(obstacle.collision_distance),
+        collision_penalty=float(obstacle.collision_penalty),
+        proximity_weight=float(obstacle.proximity_weight),
+        proximity_decay=float(obstacle.proximity_decay),
+        segment_points=float(obstacle.segment_points),
+        block_half=float(obstacle.scale * BLOCK_FOOTPRINT / 2 - COLLISION_MARGIN),
+        link_half_x=float(link.box_length / 2 - COLLISION_MARGIN),
+        link_half_y=float(LINK_WIDTH / 2 - COLLISION_MARGIN),
+        link_centre=float(link.box_origin),
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def wrap_at(q, scale):
+    """:func:`wrap_angle` of one angle: round half to even at 1/scale rad (scale 0: no rounding), mod 2π."""
+    if scale > 0.0:
+        q = np.round(q * scale) / scale
+    return np.remainder(q, TWO_PI)
+
+
+@numba.njit(cache=True, inline="always")
+def _point_to_box(px, py, half_x, half_y):
+    dx = max(abs(px) - half_x, 0.0)
+    dy = max(abs(py) - half_y, 0.0)
+    return np.sqrt(dx * dx + dy * dy)
+
+
+@numba.njit(cache=True, inline="always")
+def upper_arm_clearance_at(p, q1):
+    """d₁ of one environment (:func:`upper_arm_clearance`) from the raw shoulder angle q1, m, clipped at 0."""
+    half, hx, hy, cx, ox, oy = p.block_half, p.link_half_x, p.link_half_y, p.link_centre, p.obstacle_x, p.obstacle_y
+    c, s = np.cos(q1), np.sin(q1)
+    best = np.inf
+    for sx in (-1.0, 1.0):
+        for sy in (-1.0, 1.0):
+            bx, by = ox + sx * half, oy + sy * half
+            lx, ly = c * bx + s * by - cx, -s * bx + c * by
+            ax, ay = cx + sx * hx, sy * hy
+            wx, wy = c * ax - s * ay - ox, s * ax + c * ay - oy
+            pair = min(_point_to_box(lx, ly, hx, hy), _point_to_box(wx, wy, half, half))
+            best = min(best, pair)
+    return max(best - 2 * COLLISION_MARGIN, 0.0)
+
+
+@numba.njit(cache=True, inline="always")
+def forearm_clearance_at(p, elbow_x, elbow_y, eff_x, eff_y):
+    """d₂ of one environment (:func:`forearm_clearance`) over the sampled forearm points, m, clipped at 0."""
+    points = int(p.segment_points)
+    nearest = np.inf  # squared: sqrt is monotone and correctly rounded, so sqrt(min) = min(sqrt) exactly
+    for k in range(points + 1):
+        f = k / points
+        dx = elbow_x + f * (eff_x - elbow_x) - p.obstacle_x
+        dy = elbow_y + f * (eff_y - elbow_y) - p.obstacle_y
+        nearest = min(nearest, dx * dx + dy * dy)
+    nearest = np.sqrt(nearest)
+    return max(nearest - p.reach, 0.0)
+
+
+@numba.njit(cache=True, inline="always")
+def observe_at(p, q1, q2, qd1, radius, angle, obs):
+    """:func:`observe` of one environment (q2 unused by a 1-link arm): fills ``obs`` and returns
+    (d, elbow x, elbow y, effector x, effector y), m (the elbow is (0, 0) for a 1-link arm)."""
+    scale = p.round_scale
+    if p.dof == 1:
+        l1 = p.length1
+        phi = wrap_at(q1, scale)
+        ex, ey = l1 * np.cos(phi), l1 * np.sin(phi)
+        theta = wrap_at(angle, scale)
+        gx, gy = radius * np.cos(theta), radius * np.sin(theta)
+        dx, dy = ex - gx, ey - gy
+        obs[0], obs[1], obs[2], obs[3], obs[4] = phi, ex, ey, theta, gx
+        obs[5], obs[6], obs[7], obs[8] = gy, dx, dy, qd1
+        return np.sqrt(dx * dx + dy * dy), 0.0, 0.0, ex, ey
+    a = wrap_at(q1, scale)
+    b = a + wrap_at(q2, scale)
+    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    elbow_x, elbow_y = p.length1 * ca, p.length1 * sa
+    ex, ey = elbow_x + p.length2 * cb, elbow_y + p.length2 * sb
+    gx, gy = radius * np.cos(angle), radius * np.sin(angle)
+    dx, dy = ex - gx, ey - gy
+    obs[0], obs[1], obs[2], obs[3], obs[4] = ca, cb, sa, sb, gx
+    obs[5], obs[6], obs[7], obs[8], obs[9] = gy, ex, ey, dx, dy
+    return np.sqrt(dx * dx + dy * dy), elbow_x, elbow_y, ex, ey
 
 
 def xp_of(x):
@@ -176,23 +348,30 @@ def observe(task: TaskSpec, joint_angles, joint_velocities, target):
 
 
 def forearm_clearance(task: TaskSpec, elbow, effector):
-    """d₂: clearance between the forearm and the obstacle, metres, clipped at 0.
+    """d₂: clearance between the forearm and the obstacle, metres, clipped at 0 (NumPy arrays).
 
-    The forearm is sampled at p_k = a + (k/K)(b − a), k = 0…K, and d₂ = min_k ‖p_k − o‖ − (r_o + t_o/2).
+    The forearm is sampled at p_k = a + (k/K)(b − a), k = 0…K, and d₂ = min_k ‖p_k − o‖ − (r_o + t_o/2)
+    (:func:`forearm_clearance_at` per environment).
+
+    Parameters
+    ----------
+    elbow, effector : array (..., 2)
+        a and b, m.
+
+    Returns
+    -------
+    array (...,)
     """
-    xp = xp_of(elbow)
-    obstacle = task.arm.obstacle
-    ox, oy = obstacle.position
-    k = np.arange(obstacle.segment_points + 1, dtype=np.float64) / obstacle.segment_points
-    if xp is not np:
-        k = torch.as_tensor(k, dtype=elbow.dtype, device=elbow.device)
-    px = elbow[..., :1] + k * (effector[..., :1] - elbow[..., :1])
-    py = elbow[..., 1:] + k * (effector[..., 1:] - elbow[..., 1:])
-    nearest = xp.sqrt((px - ox) ** 2 + (py - oy) ** 2).min(-1)
-    if xp is not np:
-        nearest = nearest.values
-    clearance = nearest - (obstacle.obstacle_radius + obstacle.link_thickness / 2)
-    return xp.clip(clearance, 0.0, None)
+    elbow, effector = np.broadcast_arrays(np.asarray(elbow, dtype=np.float64), np.asarray(effector, dtype=np.float64))
+    out = np.empty(elbow.shape[:-1])
+    _forearm_clearances(task_params(task), elbow.reshape(-1, 2), effector.reshape(-1, 2), out.reshape(-1))
+    return out
+
+
+@numba.njit(cache=True)
+def _forearm_clearances(p, elbow, effector, out):
+    for e in range(out.shape[0]):
+        out[e] = forearm_clearance_at(p, elbow[e, 0], elbow[e, 1], effector[e, 0], effector[e, 1])
 
 
 def reward_terms(task: TaskSpec, action, distance, upper_clearance=None, forearm_clearance_=None):
@@ -252,46 +431,30 @@ BLOCK_LENGTH = 0.10  # its long side, vertical once stood upright
 COLLISION_MARGIN = 0.001
 
 
-def _point_to_box(px, py, half_x, half_y, xp):
-    """Distance from points (px, py) to the axis-aligned box [−half_x, half_x] × [−half_y, half_y]."""
-    dx = xp.clip(xp.abs(px) - half_x, 0.0, None)
-    dy = xp.clip(xp.abs(py) - half_y, 0.0, None)
-    return xp.sqrt(dx * dx + dy * dy)
-
-
 def upper_arm_clearance(task: TaskSpec, joint_angles):
     """d₁: closest distance between link 1's box and the block in the plane, metres, clipped at 0.
 
     Matches ``pybullet.getClosestPoints`` for disjoint boxes (both vertical ranges overlap, so the
-    3-D distance is the planar one): the distance between the margin-shrunk cores minus the margins.
-    Uses the raw (unrounded) shoulder angle, as the simulator does.
+    3-D distance is the planar one): the distance between the margin-shrunk cores minus the margins
+    (:func:`upper_arm_clearance_at` per environment). Uses the raw (unrounded) shoulder angle, as the
+    simulator does.
 
     Parameters
     ----------
     joint_angles : array (..., 2)
+        NumPy array, rad.
+
+    Returns
+    -------
+    array (...,)
     """
-    xp = xp_of(joint_angles)
-    obstacle = task.arm.obstacle
-    link = task.arm.links[0]
-    ox, oy = obstacle.position
-    block_half = obstacle.scale * BLOCK_FOOTPRINT / 2 - COLLISION_MARGIN
-    # link 1 core, in its own frame: x ∈ [−overhang, length] shrunk by the margin, centred at cx
-    half_x = link.box_length / 2 - COLLISION_MARGIN
-    half_y = LINK_WIDTH / 2 - COLLISION_MARGIN
-    cx = link.box_origin
-    q = joint_angles[..., 0]
-    c, s = xp.cos(q), xp.sin(q)
-    best = None
-    for sx in (-1.0, 1.0):
-        for sy in (-1.0, 1.0):
-            # a block corner, in link 1's frame
-            bx, by = ox + sx * block_half, oy + sy * block_half
-            lx, ly = c * bx + s * by - cx, -s * bx + c * by
-            d_block_corner = _point_to_box(lx, ly, half_x, half_y, xp)
-            # a link corner, in the block's (axis-aligned) frame
-            ax, ay = cx + sx * half_x, sy * half_y
-            wx, wy = c * ax - s * ay - ox, s * ax + c * ay - oy
-            d_link_corner = _point_to_box(wx, wy, block_half, block_half, xp)
-            pair = xp.minimum(d_block_corner, d_link_corner)
-            best = pair if best is None else xp.minimum(best, pair)
-    return xp.clip(best - 2 * COLLISION_MARGIN, 0.0, None)
+    q1 = np.ascontiguousarray(np.asarray(joint_angles, dtype=np.float64)[..., 0])
+    out = np.empty(q1.shape)
+    _upper_arm_clearances(task_params(task), q1.reshape(-1), out.reshape(-1))
+    return out
+
+
+@numba.njit(cache=True)
+def _upper_arm_clearances(p, q1, out):
+    for e in range(out.shape[0]):
+        out[e] = upper_arm_clearance_at(p, q1[e])

@@ -42,6 +42,9 @@ class ReachingEnv(gym.Env):
     m, q̇ in rad/s. The obstacle is not observed.
 
     ## Rewards
+    By reward kind (declared, with the one function that computes them, in
+    :mod:`taskcomplexity.tasks.rewards`):
+
     - dense: r = −(d² + Σ aᵢ²) ∈ [−(reach + R)² − dof, 0]
     - sparse: r = 0 if d < 0.05 else −1
     - obstacle (dense): r = −(d² + Σ aᵢ² + 1000·c + 5·(e^(−2.5·d₁) + e^(−2.5·d₂)))

@@ -25,7 +25,8 @@ import numpy as np
 
 from taskcomplexity.tasks.contact import ContactZone
 from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, inverse_mass_matrix
-from taskcomplexity.tasks.step_kernel import TaskParams, gather, step_block
+from taskcomplexity.tasks.mechanics import TaskParams
+from taskcomplexity.tasks.step_kernel import gather, step_block
 
 
 @numba.njit(cache=True, inline="always")

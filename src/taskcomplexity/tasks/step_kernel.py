@@ -1,18 +1,19 @@
 """The batched backend's environment step as one fused numba kernel.
 
 Per environment, one call does what ``ReachingEnv.step`` does: clip the action, integrate the
-physics (:func:`taskcomplexity.tasks.dynamics.integrate_block`), then observe exactly as
-:mod:`taskcomplexity.tasks.mechanics` defines it (observation, distance d, the obstacle's clearances
-d₁ and d₂), reward by :func:`taskcomplexity.tasks.rewards.reward` (success, collision and the
+physics (:func:`taskcomplexity.tasks.dynamics.integrate_block`), then observe by the scalar
+definitions of :mod:`taskcomplexity.tasks.mechanics` (observation, distance d, the obstacle's
+clearances d₁ and d₂), reward by :func:`taskcomplexity.tasks.rewards.reward` (success, collision and the
 reward, the function the PyBullet reference evaluates too), and keep the episode bookkeeping
 (return, length, done).
 
-The task's parameters reach the kernels as named records of floats (:class:`TaskParams`,
-:class:`~taskcomplexity.tasks.dynamics.ArmParams`, :class:`~taskcomplexity.tasks.contact.ContactZone`):
-numba passes them by value, so their fields stay in registers.
+The task's parameters reach the kernels as named records of floats
+(:class:`~taskcomplexity.tasks.mechanics.TaskParams`, :class:`~taskcomplexity.tasks.dynamics.ArmParams`,
+:class:`~taskcomplexity.tasks.contact.ContactZone`): numba passes them by value, so their fields stay
+in registers.
 
-:mod:`~taskcomplexity.tasks.mechanics` stays the definition of what the agent observes: it is what
-the PyBullet reference runs, and ``tests/tasks/test_step_kernel.py`` holds this kernel to it on
+:mod:`~taskcomplexity.tasks.mechanics` is the definition of what the agent observes: the PyBullet
+reference runs it too, and ``tests/tasks/test_step_kernel.py`` holds this kernel to its array form on
 random states. The kernel exists for speed: at the paper's scale the same arithmetic as ~40
 separate tensor operations per step spent most of its time moving memory.
 """
@@ -22,7 +23,6 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
-from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -30,8 +30,12 @@ import numpy as np
 from taskcomplexity.tasks import rewards
 from taskcomplexity.tasks.contact import HANDOVER, ContactZone
 from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, integrate_block, inverse_mass_matrix
-from taskcomplexity.tasks.mechanics import BLOCK_FOOTPRINT, COLLISION_MARGIN, TWO_PI
-from taskcomplexity.tasks.spec import LINK_WIDTH, TaskSpec
+from taskcomplexity.tasks.mechanics import (
+    TaskParams,
+    forearm_clearance_at,
+    observe_at,
+    upper_arm_clearance_at,
+)
 
 KERNEL_MODULES = ("step_kernel", "rollout_kernel", "dynamics", "contact", "mechanics", "rewards")
 
@@ -76,167 +80,6 @@ def prepare_kernels() -> None:
     numba.config.THREADING_LAYER = "workqueue"
 
 
-class TaskParams(NamedTuple):
-    """The kernels' record of a task's semantics (floats; lengths in m, torques in N·m).
-
-    A tuple of floats: numba passes it by value and the compiler keeps the fields in registers.
-    Without an obstacle the obstacle's fields are 0.
-    """
-
-    dof: float
-    """Number of links, 1 or 2."""
-    round_scale: float
-    """10^decimals where the task rounds the observed angles (to 1/round_scale rad), else 0."""
-    length1: float
-    """Upper arm length, m."""
-    length2: float
-    """Forearm length, m (0 for a 1-link arm)."""
-    threshold: float
-    """Success distance, m."""
-    reward_kind: float
-    """:attr:`taskcomplexity.tasks.rewards.RewardKind.code` of the task's reward."""
-    torque_scale1: float
-    """Shoulder torque per unit action, N·m."""
-    torque_scale2: float
-    """Elbow torque per unit action, N·m (0 for a 1-link arm)."""
-    obstacle: float
-    """1 with an obstacle, else 0."""
-    obstacle_x: float
-    """Block centre x, m."""
-    obstacle_y: float
-    """Block centre y, m."""
-    reach: float
-    """r_o + t_o/2: what d₂ subtracts from the forearm's distance to the block centre, m."""
-    collision_distance: float
-    """A clearance at or below this is a collision, m."""
-    collision_penalty: float
-    """Reward penalty of a collision."""
-    proximity_weight: float
-    """Weight of the proximity term."""
-    proximity_decay: float
-    """Decay of the proximity term, 1/m."""
-    segment_points: float
-    """The forearm is sampled at k = 0 … segment_points for d₂."""
-    block_half: float
-    """Half side of the block's footprint core (shrunk by the collision margin), m."""
-    link_half_x: float
-    """Half length of link 1's box core, m."""
-    link_half_y: float
-    """Half width of link 1's box core, m."""
-    link_centre: float
-    """Centre of link 1's box along its axis from the shoulder, m."""
-
-
-def task_params(task: TaskSpec) -> TaskParams:
-    """The kernels' :class:`TaskParams` record of ``task``."""
-    arm = task.arm
-    two = arm.dof == 2
-    values = dict(
-        dof=float(arm.dof),
-        round_scale=10.0**arm.angle_decimals if task.rounds_angles else 0.0,
-        length1=float(arm.links[0].length),
-        length2=float(arm.links[1].length) if two else 0.0,
-        threshold=float(task.reward.threshold),
-        reward_kind=rewards.reward_kind(task.reward.kind).code,
-        torque_scale1=float(arm.torque_scale[0]),
-        torque_scale2=float(arm.torque_scale[1]) if two else 0.0,
-    )
-    obstacle = arm.obstacle
-    none = {name: 0.0 for name in TaskParams._fields[len(values):]}
-    if obstacle is None:
-        return TaskParams(**values, **none)
-    link = arm.links[0]
-    ox, oy = obstacle.position
-    return TaskParams(
-        **values,
-        obstacle=1.0,
-        obstacle_x=float(ox),
-        obstacle_y=float(oy),
-        reach=float(obstacle.obstacle_radius + obstacle.link_thickness / 2),
-        collision_distance=float(obstacle.collision_distance),
-        collision_penalty=float(obstacle.collision_penalty),
-        proximity_weight=float(obstacle.proximity_weight),
-        proximity_decay=float(obstacle.proximity_decay),
-        segment_points=float(obstacle.segment_points),
-        block_half=float(obstacle.scale * BLOCK_FOOTPRINT / 2 - COLLISION_MARGIN),
-        link_half_x=float(link.box_length / 2 - COLLISION_MARGIN),
-        link_half_y=float(LINK_WIDTH / 2 - COLLISION_MARGIN),
-        link_centre=float(link.box_origin),
-    )
-
-
-@numba.njit(cache=True, inline="always")
-def _wrap(q, scale):
-    """mechanics.wrap_angle: round half to even at 1/scale rad (scale 0: no rounding), mod 2π."""
-    if scale > 0.0:
-        q = np.round(q * scale) / scale
-    return np.remainder(q, TWO_PI)
-
-
-@numba.njit(cache=True, inline="always")
-def _point_to_box(px, py, half_x, half_y):
-    dx = max(abs(px) - half_x, 0.0)
-    dy = max(abs(py) - half_y, 0.0)
-    return np.sqrt(dx * dx + dy * dy)
-
-
-@numba.njit(cache=True, inline="always")
-def _upper_arm_clearance(p, q1):
-    """mechanics.upper_arm_clearance: d₁ from the raw shoulder angle, m, clipped at 0."""
-    half, hx, hy, cx, ox, oy = p.block_half, p.link_half_x, p.link_half_y, p.link_centre, p.obstacle_x, p.obstacle_y
-    c, s = np.cos(q1), np.sin(q1)
-    best = np.inf
-    for sx in (-1.0, 1.0):
-        for sy in (-1.0, 1.0):
-            bx, by = ox + sx * half, oy + sy * half
-            lx, ly = c * bx + s * by - cx, -s * bx + c * by
-            ax, ay = cx + sx * hx, sy * hy
-            wx, wy = c * ax - s * ay - ox, s * ax + c * ay - oy
-            pair = min(_point_to_box(lx, ly, hx, hy), _point_to_box(wx, wy, half, half))
-            best = min(best, pair)
-    return max(best - 2 * COLLISION_MARGIN, 0.0)
-
-
-@numba.njit(cache=True, inline="always")
-def _forearm_clearance(p, elbow_x, elbow_y, eff_x, eff_y):
-    """mechanics.forearm_clearance: d₂ over the sampled forearm points, m, clipped at 0."""
-    points = int(p.segment_points)
-    nearest = np.inf  # squared: sqrt is monotone and correctly rounded, so sqrt(min) = min(sqrt) exactly
-    for k in range(points + 1):
-        f = k / points
-        dx = elbow_x + f * (eff_x - elbow_x) - p.obstacle_x
-        dy = elbow_y + f * (eff_y - elbow_y) - p.obstacle_y
-        nearest = min(nearest, dx * dx + dy * dy)
-    nearest = np.sqrt(nearest)
-    return max(nearest - p.reach, 0.0)
-
-
-@numba.njit(cache=True, inline="always")
-def _observe(p, q1, q2, qd1, radius, angle, obs):
-    """mechanics.observe for one environment: fills ``obs`` and returns (d, elbow, effector)."""
-    scale = p.round_scale
-    if p.dof == 1:
-        l1 = p.length1
-        phi = _wrap(q1, scale)
-        ex, ey = l1 * np.cos(phi), l1 * np.sin(phi)
-        theta = _wrap(angle, scale)
-        gx, gy = radius * np.cos(theta), radius * np.sin(theta)
-        dx, dy = ex - gx, ey - gy
-        obs[0], obs[1], obs[2], obs[3], obs[4] = phi, ex, ey, theta, gx
-        obs[5], obs[6], obs[7], obs[8] = gy, dx, dy, qd1
-        return np.sqrt(dx * dx + dy * dy), 0.0, 0.0, ex, ey
-    a = _wrap(q1, scale)
-    b = a + _wrap(q2, scale)
-    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
-    elbow_x, elbow_y = p.length1 * ca, p.length1 * sa
-    ex, ey = elbow_x + p.length2 * cb, elbow_y + p.length2 * sb
-    gx, gy = radius * np.cos(angle), radius * np.sin(angle)
-    dx, dy = ex - gx, ey - gy
-    obs[0], obs[1], obs[2], obs[3], obs[4] = ca, cb, sa, sb, gx
-    obs[5], obs[6], obs[7], obs[8], obs[9] = gy, ex, ey, dx, dy
-    return np.sqrt(dx * dx + dy * dy), elbow_x, elbow_y, ex, ey
-
-
 @numba.njit(cache=True, inline="always")
 def gather(active, steps, max_steps, lo, hi, index):
     """Pack the environments ``lo … hi−1`` that are active and have taken fewer than ``max_steps`` steps
@@ -255,7 +98,8 @@ def step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, retur
     """One environment step of the n active environments ``index[:n]``, in place (the mechanics of one step).
 
     ``arm`` is the :class:`~taskcomplexity.tasks.dynamics.ArmParams` record, ``p`` the
-    :class:`TaskParams` record, ``zone`` the :class:`~taskcomplexity.tasks.contact.ContactZone`.
+    :class:`~taskcomplexity.tasks.mechanics.TaskParams` record, ``zone`` the
+    :class:`~taskcomplexity.tasks.contact.ContactZone`.
     The physics runs in lock-step over the n environments (:func:`~taskcomplexity.tasks.dynamics.integrate_block`);
     each environment's arithmetic is its own, so its result does not depend on which others share the
     block. Both :func:`step` and the fused RWG rollout (:mod:`taskcomplexity.tasks.rollout_kernel`) call
@@ -276,7 +120,7 @@ def step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, retur
             a2[j], v[j] = q[e, 1], qd[e, 1]
             t2[j] = min(max(action[e, 1], -1.0), 1.0) * p.torque_scale2
         if obstacle:
-            upper[j] = _upper_arm_clearance(p, a1[j])  # measured before the step
+            upper[j] = upper_arm_clearance_at(p, a1[j])  # measured before the step
     integrate_block(arm, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
     for j in range(n):
         e = index[j]
@@ -292,7 +136,7 @@ def step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, retur
         q[e, 0], qd[e, 0] = a1[j], u[j]
         if two_links:
             q[e, 1], qd[e, 1] = a2[j], v[j]
-        d, elbow_x, elbow_y, ex, ey = _observe(
+        d, elbow_x, elbow_y, ex, ey = observe_at(
             p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], target[e, 0], target[e, 1], obs[e]
         )
         c1 = min(max(action[e, 0], -1.0), 1.0)
@@ -304,7 +148,7 @@ def step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, retur
         collision = False
         near = 0.0
         if obstacle:
-            forearm = _forearm_clearance(p, elbow_x, elbow_y, ex, ey)
+            forearm = forearm_clearance_at(p, elbow_x, elbow_y, ex, ey)
             collision = rewards.collision(upper[j], forearm, p.collision_distance)
             near = rewards.proximity(upper[j], forearm, p.proximity_decay)
         r = rewards.reward(p.reward_kind, d, p.threshold, effort, collision, near, p.collision_penalty,
@@ -356,7 +200,7 @@ def step(
     arm : ArmParams
         :meth:`taskcomplexity.tasks.dynamics.ArmDynamics.params` of the arm.
     task : TaskParams
-        :func:`task_params` of the task.
+        :func:`taskcomplexity.tasks.mechanics.task_params` of the task.
     zone : ContactZone
         :func:`taskcomplexity.tasks.dynamics.contact_zone` of the task: with hand-overs, an environment
         whose forearm enters the block's contact zone keeps its state from before the step, is marked
