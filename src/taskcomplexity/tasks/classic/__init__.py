@@ -63,7 +63,8 @@ class ClassicKernel:
         ``reset(u) -> ndarray (K, state_size)``: initial states from the first uniforms ``u`` (K, 4) of
         each episode's generator, drawn as the env's ``reset`` draws them.
     arguments : mapping
-        Supported constructor arguments and their defaults, in the order of the kernel's params vector.
+        Supported constructor arguments and their defaults (fields of
+        :class:`~taskcomplexity.tasks.classic.kernels.ClassicParams`, except Pendulum's ``g``).
     """
 
     code: int
@@ -75,12 +76,12 @@ class ClassicKernel:
         """Whether every constructor argument is one the kernel models (with a plain number value)."""
         return all(k in self.arguments and isinstance(v, (bool, int, float)) for k, v in kwargs.items())
 
-    def params(self, kwargs: Mapping[str, Any]) -> np.ndarray:
-        """The kernel's params vector for these constructor arguments."""
+    def params(self, kwargs: Mapping[str, Any]) -> kernels.ClassicParams:
+        """The kernel's :class:`~taskcomplexity.tasks.classic.kernels.ClassicParams` for these constructor arguments."""
         values = {**self.arguments, **kwargs}
         if self.code == kernels.PENDULUM:
-            return np.array([3 * values["g"] / (2 * 1.0)])
-        return np.array([float(values[k]) for k in self.arguments] or [0.0])
+            return kernels.ClassicParams(gravity_gain=float(3 * values["g"] / (2 * 1.0)))
+        return kernels.ClassicParams(**{k: float(v) for k, v in values.items()})
 
     def initial_states(self, reset_seeds: np.ndarray) -> np.ndarray:
         """Initial states of episodes reset with ``reset_seeds``.

@@ -18,11 +18,23 @@ with the episode bookkeeping (return, length, time limit) of the generic gym bac
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
 CARTPOLE, PENDULUM, MOUNTAIN_CAR, MOUNTAIN_CAR_CONTINUOUS, ACROBOT = range(5)
+
+
+class ClassicParams(NamedTuple):
+    """The kernels' record of an env's constructor arguments (floats; each env reads its own fields)."""
+
+    sutton_barto_reward: float = 0.0
+    """CartPole: 1 for the Sutton–Barto reward (0 per step, −1 at termination), else 0."""
+    gravity_gain: float = 0.0
+    """Pendulum: 3g/(2l), 1/s² (l = 1 m)."""
+    goal_velocity: float = 0.0
+    """MountainCar(Continuous): the velocity the car must reach at the goal."""
 
 PI = np.pi
 
@@ -42,7 +54,7 @@ def _box_action(output, low, high):
     return np.float32(low + (output + 1.0) * 0.5 * (high - low))
 
 
-# -- CartPole-v0/v1 (cartpole.py): state float64 [x, x_dot, theta, theta_dot]; params [sutton_barto_reward]
+# -- CartPole-v0/v1 (cartpole.py): state float64 [x, x_dot, theta, theta_dot]; params.sutton_barto_reward
 @numba.njit(cache=True, inline="always")
 def _cartpole_step(s, outputs, params):
     gravity = 9.8
@@ -68,7 +80,7 @@ def _cartpole_step(s, outputs, params):
     theta_dot = theta_dot + tau * thetaacc
     s[0], s[1], s[2], s[3] = x, x_dot, theta, theta_dot
     terminated = x < -2.4 or x > 2.4 or theta < -theta_threshold or theta > theta_threshold
-    if params[0] != 0.0:  # sutton_barto_reward
+    if params.sutton_barto_reward != 0.0:
         return (-1.0 if terminated else 0.0), terminated
     return 1.0, terminated
 
@@ -79,7 +91,7 @@ def _cartpole_observe(s, obs):
         obs[k] = np.float32(s[k])
 
 
-# -- Pendulum-v1 (pendulum.py): state float64 [th, thdot]; params [3 g / (2 l)]
+# -- Pendulum-v1 (pendulum.py): state float64 [th, thdot]; params.gravity_gain = 3 g / (2 l)
 @numba.njit(cache=True, inline="always")
 def _pendulum_step(s, outputs, params):
     th, thdot = s[0], s[1]
@@ -88,7 +100,7 @@ def _pendulum_step(s, outputs, params):
     # u**2, 0.001*u**2 and 3.0*u are float32 products in NumPy 2 (a Python float times np.float32)
     u_cost = np.float32(0.001) * (u * u)
     costs = normalized * normalized + 0.1 * (thdot * thdot) + np.float64(u_cost)
-    newthdot = thdot + (params[0] * math.sin(th) + np.float64(np.float32(3.0) * u)) * 0.05
+    newthdot = thdot + (params.gravity_gain * math.sin(th) + np.float64(np.float32(3.0) * u)) * 0.05
     newthdot = min(max(newthdot, -8.0), 8.0)
     s[0] = th + newthdot * 0.05
     s[1] = newthdot
@@ -102,7 +114,7 @@ def _pendulum_observe(s, obs):
     obs[2] = np.float32(s[1])
 
 
-# -- MountainCar-v0 (mountain_car.py): state float64 [position, velocity]; params [goal_velocity]
+# -- MountainCar-v0 (mountain_car.py): state float64 [position, velocity]; params.goal_velocity
 @numba.njit(cache=True, inline="always")
 def _mountain_car_step(s, outputs, params):
     position, velocity = s[0], s[1]
@@ -113,7 +125,7 @@ def _mountain_car_step(s, outputs, params):
     if position == -1.2 and velocity < 0:
         velocity = 0.0
     s[0], s[1] = position, velocity
-    return -1.0, position >= 0.5 and velocity >= params[0]
+    return -1.0, position >= 0.5 and velocity >= params.goal_velocity
 
 
 @numba.njit(cache=True, inline="always")
@@ -123,7 +135,7 @@ def _mountain_car_observe(s, obs):
 
 
 # -- MountainCarContinuous-v0 (continuous_mountain_car.py): state [position, velocity, stepped];
-#    params [goal_velocity]. The env's state is float64 from reset and float32 after its first step;
+#    params.goal_velocity. The env's state is float64 from reset and float32 after its first step;
 #    NumPy 2 then computes in float32 wherever a float32 meets a Python float (NEP 50), comparisons
 #    included, and so does this kernel.
 @numba.njit(cache=True, inline="always")
@@ -137,7 +149,7 @@ def _mountain_car_continuous_step(s, outputs, params):
         position = min(max(position + velocity, -1.2), 0.6)
         if position == -1.2 and velocity < 0:
             velocity = 0.0
-        terminated = position >= 0.45 and velocity >= params[0]
+        terminated = position >= 0.45 and velocity >= params.goal_velocity
     else:  # float32 state
         p32, v32 = np.float32(s[0]), np.float32(s[1])
         angle = np.float64(np.float32(3.0) * p32)
@@ -147,7 +159,7 @@ def _mountain_car_continuous_step(s, outputs, params):
         p32 = min(max(p32 + v32, np.float32(-1.2)), np.float32(0.6))
         if p32 == np.float32(-1.2) and v32 < np.float32(0.0):
             v32 = np.float32(0.0)
-        terminated = p32 >= np.float32(0.45) and v32 >= np.float32(params[0])
+        terminated = p32 >= np.float32(0.45) and v32 >= np.float32(params.goal_velocity)
         position, velocity = np.float64(p32), np.float64(v32)
     reward = 100.0 if terminated else 0.0
     reward -= math.pow(np.float64(force), 2) * 0.1
@@ -286,8 +298,8 @@ def step_all(code, params, state, outputs, obs, running, returns, steps, max_ste
     Parameters
     ----------
     code : int
-    params : ndarray (p,) float64
-        The env's constructor arguments (layout per env above).
+    params : ClassicParams
+        The env's constructor arguments.
     state : ndarray (K, S) float64, updated
     outputs : ndarray (K, A) float64
         The policies' outputs (in (−1, 1) for Box actions).
