@@ -13,7 +13,7 @@ from taskcomplexity.config import build, task_from_config
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.tasks.rewards import REWARD_KINDS, reward_kind
-from taskcomplexity.tasks.spec import ARMS, REWARDS, ArmSpec, RewardSpec, make_task
+from taskcomplexity.tasks.spec import REWARDS, ArmSpec, RewardSpec, arm_presets, make_task
 
 ARM_NAMES = sorted(p.stem for p in (CONF_DIR / "arm").glob("*.yaml"))
 REWARD_NAMES = sorted(p.stem for p in (CONF_DIR / "reward").glob("*.yaml"))
@@ -23,7 +23,7 @@ REWARD_NAMES = sorted(p.stem for p in (CONF_DIR / "reward").glob("*.yaml"))
 @pytest.mark.parametrize("reward", REWARD_NAMES)
 def test_every_arm_reward_composition_is_valid_or_refused_with_the_documented_message(compose_config, arm, reward):
     cfg = compose_config(f"arm={arm}", f"reward={reward}")
-    if ARMS[arm].obstacle is not None and not reward_kind(reward).obstacle:
+    if arm_presets()[arm].obstacle is not None and not reward_kind(reward).obstacle:
         with pytest.raises(ConfigError, match=rf"reward={reward} is not available for arm={arm} \(allowed: dense"):
             task_from_config(cfg)
         return
@@ -34,9 +34,10 @@ def test_every_arm_reward_composition_is_valid_or_refused_with_the_documented_me
 
 
 @pytest.mark.parametrize("arm", ARM_NAMES)
-def test_yaml_arms_equal_the_presets(compose_config, arm):
+def test_the_presets_are_what_hydra_composes(compose_config, arm):
+    # arm_presets() reads conf/arm/*.yaml itself (defaults list included): it must agree with Hydra
     cfg = compose_config(f"arm={arm}")
-    assert build(ArmSpec, cfg.arm, "arm") == ARMS[arm]
+    assert build(ArmSpec, cfg.arm, "arm") == arm_presets()[arm]
 
 
 @pytest.mark.parametrize("reward", REWARD_NAMES)
@@ -70,7 +71,7 @@ def test_unknown_arm_preset_names_the_allowed_ones():
 
 
 def test_presets_are_frozen_dataclasses():
-    arm = ARMS["two_link"]
+    arm = arm_presets()["two_link"]
     with pytest.raises(dataclasses.FrozenInstanceError):
         arm.time_step = 1.0  # type: ignore[misc]
 

@@ -8,8 +8,9 @@ N·m, times in seconds (see ``shared/spec/environments.md``).
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.rewards import KINDS, REWARD_KINDS, reward_kind
@@ -304,36 +305,37 @@ def _non_negative(key: str, value: float) -> None:
 
 # --- presets (the reference tasks of environments.md) -------------------------------------------
 
-ONE_LINK_1M0 = ArmSpec(
-    name="one_link_1m0",
-    links=(LinkSpec(length=0.95, mass=6.75, com=0.50),),
-    torque_scale=(30.0,),
-    time_step=0.01,
-    target_radius=(0.96, 0.96),
-    round_angles=("dense",),
-)
-ONE_LINK_1M65 = ArmSpec(
-    name="one_link_1m65",
-    links=(LinkSpec(length=1.65, mass=11.475, com=0.80),),
-    torque_scale=(156.0,),
-    time_step=0.01,
-    target_radius=(1.66, 1.66),
-    round_angles=("dense",),
-)
-TWO_LINK = ArmSpec(
-    name="two_link",
-    links=(
-        LinkSpec(length=0.70, mass=5.0625, com=0.0, joint_damping=1.0),
-        LinkSpec(length=0.95, mass=6.75, com=0.0, joint_damping=1.0),
-    ),
-    torque_scale=(205.0, 100.0),
-    time_step=0.02,
-    target_radius=(0.35, 1.51),
-    round_angles=("dense", "sparse"),
-)
-TWO_LINK_OBSTACLE = replace(TWO_LINK, name="two_link_obstacle", obstacle=ObstacleSpec())
 
-ARMS: dict[str, ArmSpec] = {a.name: a for a in (ONE_LINK_1M0, ONE_LINK_1M65, TWO_LINK, TWO_LINK_OBSTACLE)}
+def _preset_node(directory, name: str) -> dict:
+    """``<directory>/<name>.yaml`` as a plain dict, its ``defaults`` list applied the way Hydra applies it
+    to a config group option (the listed siblings first, then the file itself, ``_self_`` last)."""
+    import yaml
+
+    node = yaml.safe_load((directory / f"{name}.yaml").read_text(encoding="utf-8"))
+    merged: dict = {}
+    for base in node.pop("defaults", None) or []:
+        if base != "_self_":
+            merged.update(_preset_node(directory, base))
+    merged.update(node)
+    return merged
+
+
+@functools.cache
+def arm_presets() -> dict[str, ArmSpec]:
+    """Every arm preset by name: the package's ``conf/arm/*.yaml``, the one declaration of each arm.
+
+    The same files are what ``arm=<name>`` composes; a preset added there is a preset here. Read once
+    per process (package data does not change under it); callers must not mutate the dict.
+    """
+    from importlib import resources
+
+    from taskcomplexity.config import build
+
+    directory = resources.files("taskcomplexity") / "conf" / "arm"
+    names = sorted(entry.name[: -len(".yaml")] for entry in directory.iterdir() if entry.name.endswith(".yaml"))
+    return {name: build(ArmSpec, _preset_node(directory, name), f"arm preset {name}") for name in names}
+
+
 REWARDS: dict[str, RewardSpec] = {kind: RewardSpec(kind) for kind in REWARD_KINDS}
 
 # The seven tasks of the study, in the order tables list them.
@@ -357,9 +359,10 @@ def make_task(arm: str | ArmSpec, reward: str | RewardSpec = "dense", max_steps:
         Unknown preset name or an invalid combination (e.g. a sparse obstacle task).
     """
     if isinstance(arm, str):
-        if arm not in ARMS:
-            raise ConfigError(f"arm must be one of {sorted(ARMS)}, got {arm!r}")
-        arm = ARMS[arm]
+        presets = arm_presets()
+        if arm not in presets:
+            raise ConfigError(f"arm must be one of {sorted(presets)}, got {arm!r}")
+        arm = presets[arm]
     if isinstance(reward, str):
         if reward not in REWARDS:
             raise ConfigError(f"reward must be one of {sorted(REWARDS)}, got {reward!r}")
@@ -376,7 +379,7 @@ def task_from_id(task_id: str) -> TaskSpec:
 
 
 __all__ = [
-    "ARMS",
+    "arm_presets",
     "REWARDS",
     "STUDY_TASKS",
     "ArmSpec",
