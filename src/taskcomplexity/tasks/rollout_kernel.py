@@ -26,7 +26,7 @@ import numpy as np
 from taskcomplexity.tasks.contact import ContactZone
 from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, inverse_mass_matrix
 from taskcomplexity.tasks.mechanics import TaskParams
-from taskcomplexity.tasks.step_kernel import gather, step_block
+from taskcomplexity.tasks.step_kernel import env_state, gather, step_block
 
 
 @numba.njit(cache=True, inline="always")
@@ -148,9 +148,10 @@ def forward(w, layer_sizes, bias, relu, tanh_output, h, g, n):
 
 
 @numba.njit(parallel=True, cache=True)
-def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_bias, episodes, max_steps, q,
-             qd, target, active, returns, steps, success, handoff, contacted, obs, reward, done, action, dt, substeps):
-    n_pol = q.shape[0] // episodes
+def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_bias, episodes, max_steps, state,
+             dt, substeps):
+    active, steps, obs, action = state.active, state.steps, state.obs, state.action
+    n_pol = active.shape[0] // episodes
     n_obs = obs.shape[1]
     n_out = layer_sizes[-1]
     width = 0
@@ -182,8 +183,7 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
                     action[index[j], k] = row[j]
             if input_bias:  # the forward pass may have used h's constant row as a work row
                 h[n_obs] = 1.0
-            step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success,
-                       handoff, contacted, obs, reward, done, dt, substeps)
+            step_block(arm, inv, p, zone, index, n, state, dt, substeps)
 
 
 def rollout(
@@ -239,7 +239,5 @@ def rollout(
     _rollout(
         arm, task, zone, np.ascontiguousarray(weights, dtype=np.float64),
         np.ascontiguousarray(layer_sizes, dtype=np.int64), bool(bias), activation == "relu", output == "tanh",
-        bool(input_bias), int(episodes), int(max_steps), q, state["joint_velocities"], state["target"],
-        state["active"], state["returns"], state["steps"], state["success"], state["handoff"], state["contact"],
-        state["observation"], state["reward"], state["done"], action, float(time_step), int(substeps),
+        bool(input_bias), int(episodes), int(max_steps), env_state(state, action), float(time_step), int(substeps),
     )

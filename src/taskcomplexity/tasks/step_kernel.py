@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -80,6 +81,46 @@ def prepare_kernels() -> None:
     numba.config.THREADING_LAYER = "workqueue"
 
 
+class EnvState(NamedTuple):
+    """The B environments' arrays as the kernels take them (updated in place; see :func:`step`)."""
+
+    q: np.ndarray
+    """(B, dof) float64: joint angles, rad."""
+    qd: np.ndarray
+    """(B, dof) float64: joint velocities, rad/s."""
+    target: np.ndarray
+    """(B, 2) float64: polar target (ρ in m, angle in rad)."""
+    action: np.ndarray
+    """(B, dof) float64: this step's actions (clipped to [−1, 1] inside)."""
+    active: np.ndarray
+    """(B,) bool: still running."""
+    returns: np.ndarray
+    """(B,) float64: undiscounted returns so far."""
+    steps: np.ndarray
+    """(B,) int64: steps taken."""
+    success: np.ndarray
+    """(B,) bool: reached d < threshold."""
+    handoff: np.ndarray
+    """(B,) bool: handed over to the PyBullet reference."""
+    contacted: np.ndarray
+    """(B,) bool: the modelled block acted on the arm."""
+    obs: np.ndarray
+    """(B, obs_size) float64: observations."""
+    reward: np.ndarray
+    """(B,) float64: this step's rewards."""
+    done: np.ndarray
+    """(B,) bool: terminated this step."""
+
+
+def env_state(state: dict[str, np.ndarray], action: np.ndarray) -> EnvState:
+    """The :class:`EnvState` of the ``state`` dict of :func:`step` and the actions' array."""
+    return EnvState(
+        state["joint_angles"], state["joint_velocities"], state["target"], action, state["active"],
+        state["returns"], state["steps"], state["success"], state["handoff"], state["contact"],
+        state["observation"], state["reward"], state["done"],
+    )
+
+
 @numba.njit(cache=True, inline="always")
 def gather(active, steps, max_steps, lo, hi, index):
     """Pack the environments ``lo … hi−1`` that are active and have taken fewer than ``max_steps`` steps
@@ -93,18 +134,18 @@ def gather(active, steps, max_steps, lo, hi, index):
 
 
 @numba.njit(cache=True)
-def step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success, handoff,
-               contacted, obs, reward, done, dt, substeps):
+def step_block(arm, inv, p, zone, index, n, state, dt, substeps):
     """One environment step of the n active environments ``index[:n]``, in place (the mechanics of one step).
 
     ``arm`` is the :class:`~taskcomplexity.tasks.dynamics.ArmParams` record, ``p`` the
     :class:`~taskcomplexity.tasks.mechanics.TaskParams` record, ``zone`` the
-    :class:`~taskcomplexity.tasks.contact.ContactZone`.
+    :class:`~taskcomplexity.tasks.contact.ContactZone`, ``state`` the :class:`EnvState`.
     The physics runs in lock-step over the n environments (:func:`~taskcomplexity.tasks.dynamics.integrate_block`);
     each environment's arithmetic is its own, so its result does not depend on which others share the
     block. Both :func:`step` and the fused RWG rollout (:mod:`taskcomplexity.tasks.rollout_kernel`) call
     this one definition. ``reward[e]`` and ``done[e]`` are set for the stepped environments only.
     """
+    q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward, done = state
     two_links = p.dof == 2
     obstacle = p.obstacle > 0
     handover = zone.mode == HANDOVER
@@ -167,9 +208,9 @@ NO_LIMIT = np.iinfo(np.int64).max  # gather's max_steps when the step count does
 
 
 @numba.njit(parallel=True, cache=True)
-def _step(arm, p, zone, q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward,
-          done, dt, substeps):
-    n_env = q.shape[0]
+def _step(arm, p, zone, state, dt, substeps):
+    active, steps, reward, done = state.active, state.steps, state.reward, state.done
+    n_env = active.shape[0]
     inv = inverse_mass_matrix(arm)
     for blk in numba.prange((n_env + BLOCK - 1) // BLOCK):
         lo = blk * BLOCK
@@ -180,8 +221,7 @@ def _step(arm, p, zone, q, qd, target, action, active, returns, steps, success, 
         index = np.empty(hi - lo, dtype=np.int64)
         n = gather(active, steps, NO_LIMIT, lo, hi, index)
         if n > 0:
-            step_block(arm, inv, p, zone, index, n, q, qd, target, action, active, returns, steps, success,
-                       handoff, contacted, obs, reward, done, dt, substeps)
+            step_block(arm, inv, p, zone, index, n, state, dt, substeps)
 
 
 def step(
@@ -218,8 +258,4 @@ def step(
     substeps : int
         Physics steps per environment step.
     """
-    _step(
-        arm, task, zone, state["joint_angles"], state["joint_velocities"], state["target"], action,
-        state["active"], state["returns"], state["steps"], state["success"], state["handoff"], state["contact"],
-        state["observation"], state["reward"], state["done"], float(time_step), int(substeps),
-    )
+    _step(arm, task, zone, env_state(state, action), float(time_step), int(substeps))
