@@ -28,14 +28,7 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from omegaconf import open_dict
 
-from taskcomplexity.cli import (
-    CONF_DIR,
-    cache_from_config,
-    check_study_settings,
-    metrics_settings_from_config,
-    study_from,
-    study_requests,
-)
+from taskcomplexity.cli import CONF_DIR, study_plan
 from taskcomplexity.config import build
 from taskcomplexity.rwg import simulate_chunk
 from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, run_diagnostics_stage
@@ -106,12 +99,9 @@ def main() -> None:
         cfg = compose("config", overrides=overrides)
         with open_dict(cfg):
             cfg.paths.outputs = str(Path(outputs) / "outputs")
-        study = study_from(cfg)
-        entries, requests = zip(*study_requests(cfg, study), strict=True)
-        check_study_settings(cfg, study, requests)
-        settings = metrics_settings_from_config(cfg)
+        plan = study_plan(cfg)
+        study, entries, requests, settings, cache = plan.study, plan.entries, plan.requests, plan.settings, plan.cache
         diagnostics_settings = build(DiagnosticsSettings, cfg.diagnostics, "diagnostics")
-        cache = cache_from_config(cfg)
         n, m = int(cfg.rwg.policies), int(cfg.rwg.episodes)
         scale = 10_000 * 500 / (n * m)
         print(f"seven tasks at N = {n:,} × M = {m:,}, B = {settings.bins:,}, {settings.resamples} resamples, "

@@ -23,14 +23,7 @@ import argparse
 import numpy as np
 from hydra import compose, initialize_config_dir
 
-from taskcomplexity.cli import (
-    CONF_DIR,
-    cache_from_config,
-    check_study_settings,
-    metrics_settings_from_config,
-    study_from,
-    study_requests,
-)
+from taskcomplexity.cli import CONF_DIR, study_plan
 from taskcomplexity.metrics import pic
 from taskcomplexity.stages.rwg_stage import load_returns
 from taskcomplexity.stages.task_artefacts import study_metrics
@@ -75,11 +68,9 @@ def main() -> None:
         overrides = ["experiment=published", *overrides]
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         cfg = compose("config", overrides=overrides)
-    study = study_from(cfg)
-    entries, requests = zip(*study_requests(cfg, study), strict=True)
-    check_study_settings(cfg, study, requests)
-    settings = metrics_settings_from_config(cfg)
-    results = study_metrics(cache_from_config(cfg), list(requests), settings, names=[e.id for e in entries],
+    plan = study_plan(cfg)
+    study, settings = plan.study, plan.settings
+    results = study_metrics(plan.cache, list(plan.requests), settings, names=[e.id for e in plan.entries],
                             progress=True)
     print(f"\n{study.name}: N = {int(cfg.rwg.policies):,} × M = {int(cfg.rwg.episodes):,}, B = {settings.bins:,}, "
           f"{settings.resamples} bootstrap resamples, seed {int(cfg.rwg.seed)}, contacts {cfg.rwg.contacts}")

@@ -7,6 +7,7 @@ group option is reported in one line, not a traceback) and wrap their task funct
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import functools
 import logging
@@ -382,6 +383,29 @@ def check_study_settings(cfg: Any, study, requests) -> None:
     for entry, request in zip(study.tasks, requests, strict=True):
         if sac_skip_reason(request.task) is None:
             with_budget(settings, entry.sac_steps, task_id=entry.id)
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyPlan:
+    """A study composed from a config and checked, before any work: what every stage will run.
+
+    ``entries`` and ``requests`` are in study order (entry i's RWG request is ``requests[i]``).
+    """
+
+    study: Any
+    entries: tuple
+    requests: tuple
+    settings: Any
+    cache: Any
+
+
+def study_plan(cfg: Any) -> StudyPlan:
+    """The study of ``cfg`` with each task's RWG request, its metrics settings and the cache; every
+    stage's settings checked first (:func:`check_study_settings`)."""
+    study = study_from(cfg)
+    entries, requests = zip(*study_requests(cfg, study), strict=True)
+    check_study_settings(cfg, study, requests)
+    return StudyPlan(study, entries, requests, metrics_settings_from_config(cfg), cache_from_config(cfg))
 
 
 def sac_command() -> str:

@@ -12,15 +12,7 @@ from typing import Any
 
 import pandas as pd
 
-from taskcomplexity.cli import (
-    cache_from_config,
-    check_study_settings,
-    metrics_settings_from_config,
-    run_name,
-    sac_command,
-    study_from,
-    study_requests,
-)
+from taskcomplexity.cli import run_name, sac_command, study_from, study_plan
 from taskcomplexity.config import build
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact
@@ -92,11 +84,8 @@ class StudyArtefacts:
 
 def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyArtefacts:
     """Compute or reuse every artefact of the study of ``cfg`` (each stage logs its cache hits)."""
-    study = study_from(cfg)
-    entries, requests = zip(*study_requests(cfg, study), strict=True)
-    check_study_settings(cfg, study, requests)  # every stage's settings, before any work
-    settings = metrics_settings_from_config(cfg)
-    cache = cache_from_config(cfg)
+    plan = study_plan(cfg)  # every stage's settings checked, before any work
+    study, entries, requests, settings, cache = plan.study, plan.entries, plan.requests, plan.settings, plan.cache
     force = bool(cfg.force)
     results = study_metrics(cache, list(requests), settings, names=[e.id for e in entries], registry=registry,
                             force=force, progress=True)
