@@ -21,8 +21,9 @@ from typing import Any
 from omegaconf import OmegaConf
 from omegaconf.errors import InterpolationKeyError
 
-from taskcomplexity.config import build, task_from_config
+from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError, TaskComplexityError
+from taskcomplexity.tasks.from_config import task_from_config
 
 CONF_DIR = Path(str(resources.files("taskcomplexity") / "conf"))
 """The packaged Hydra configs (``taskcomplexity/conf``, shipped as package data): every entry point's

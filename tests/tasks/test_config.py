@@ -9,9 +9,10 @@ import pytest
 import yaml
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.config import build, task_from_config
+from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.rewards import REWARD_KINDS, reward_kind
 from taskcomplexity.tasks.spec import REWARDS, ArmSpec, RewardSpec, arm_presets, make_task
 

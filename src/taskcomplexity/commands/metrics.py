@@ -24,10 +24,10 @@ from taskcomplexity.cli import (
     study_requests,
 )
 from taskcomplexity.commands import entry_point
-from taskcomplexity.config import task_from_config
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
 from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
+from taskcomplexity.tasks.from_config import task_from_config
 
 log = logging.getLogger("metrics")
 

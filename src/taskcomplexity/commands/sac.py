@@ -19,9 +19,9 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import cache_from_config, entry_config, one_line_errors, study_from
 from taskcomplexity.commands import entry_point
-from taskcomplexity.config import task_from_config
 from taskcomplexity.rl import with_budget
 from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config
+from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
 log = logging.getLogger("sac")
