@@ -43,9 +43,10 @@ class BatchedReaching:
         self.size = size
         step_kernel.prepare_kernels()
         dof = task.arm.dof
-        self._arm = ArmDynamics(read_arm_urdf(urdf_path(task.arm))).params()
-        self._zone = contact_zone(task, contacts)
-        self._task = mechanics.task_params(task)
+        self._kernel = step_kernel.KernelTask(
+            arm=ArmDynamics(read_arm_urdf(urdf_path(task.arm))).params(), task=mechanics.task_params(task),
+            zone=contact_zone(task, contacts), time_step=task.arm.time_step, substeps=task.arm.substeps,
+        )
         self.joint_angles = torch.zeros(size, dof, dtype=torch.float64)
         self.joint_velocities = torch.zeros(size, dof, dtype=torch.float64)
         self.target = torch.zeros(size, 2, dtype=torch.float64)
@@ -116,10 +117,7 @@ class BatchedReaching:
         continues, from that state, on the PyBullet reference.
         """
         action = torch.as_tensor(action, dtype=torch.float64).contiguous()
-        step_kernel.step(
-            self._arm, self._task, self._zone, self._state, action.numpy(),
-            self.task.arm.time_step, self.task.arm.substeps,
-        )
+        step_kernel.step(self._kernel, self._state, action.numpy())
         return self.observation, self.reward, self.done
 
     def rollout(
@@ -150,7 +148,6 @@ class BatchedReaching:
         if self.size % len(weights):
             raise ValueError(f"{self.size} environments do not split evenly over {len(weights)} policies")
         rollout_kernel.rollout(
-            self._arm, self._task, self._zone, self._state, weights, layer_sizes,
-            episodes=self.size // len(weights), max_steps=self.task.max_steps, time_step=self.task.arm.time_step,
-            substeps=self.task.arm.substeps, activation=activation, output=output, bias=bias, input_bias=input_bias,
+            self._kernel, self._state, weights, layer_sizes, episodes=self.size // len(weights),
+            max_steps=self.task.max_steps, activation=activation, output=output, bias=bias, input_bias=input_bias,
         )

@@ -23,10 +23,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from taskcomplexity.tasks.contact import ContactZone
-from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, inverse_mass_matrix
-from taskcomplexity.tasks.mechanics import TaskParams
-from taskcomplexity.tasks.step_kernel import env_state, gather, step_block
+from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix
+from taskcomplexity.tasks.step_kernel import KernelTask, env_state, gather, step_block
 
 
 @numba.njit(cache=True, inline="always")
@@ -187,17 +185,13 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
 
 
 def rollout(
-    arm: ArmParams,
-    task: TaskParams,
-    zone: ContactZone,
+    kernel: KernelTask,
     state: dict[str, np.ndarray],
     weights: np.ndarray,
     layer_sizes: np.ndarray,
     *,
     episodes: int,
     max_steps: int,
-    time_step: float,
-    substeps: int,
     activation: str = "relu",
     output: str = "tanh",
     bias: bool = False,
@@ -207,7 +201,7 @@ def rollout(
 
     Parameters
     ----------
-    arm, task, zone, state
+    kernel, state
         As in :func:`taskcomplexity.tasks.step_kernel.step`; ``reward`` and ``done`` end up holding
         each environment's last step.
     weights : ndarray (P, S) float64
@@ -218,10 +212,6 @@ def rollout(
         Environments per policy.
     max_steps : int
         Episode length limit (truncation); an environment that has taken ``max_steps`` steps stops.
-    time_step : float
-        Physics time step, s.
-    substeps : int
-        Physics steps per environment step.
     activation : {'relu', 'tanh'}
     output : {'tanh', 'linear'}
         The outputs are the actions (clipped to [−1, 1] by the step).
@@ -237,7 +227,8 @@ def rollout(
                          f"{state['observation'].shape[1]} (input bias {input_bias}) and {dof} actions")
     action = np.zeros((n_env, dof))
     _rollout(
-        arm, task, zone, np.ascontiguousarray(weights, dtype=np.float64),
+        kernel.arm, kernel.task, kernel.zone, np.ascontiguousarray(weights, dtype=np.float64),
         np.ascontiguousarray(layer_sizes, dtype=np.int64), bool(bias), activation == "relu", output == "tanh",
-        bool(input_bias), int(episodes), int(max_steps), env_state(state, action), float(time_step), int(substeps),
+        bool(input_bias), int(episodes), int(max_steps), env_state(state, action), float(kernel.time_step),
+        int(kernel.substeps),
     )

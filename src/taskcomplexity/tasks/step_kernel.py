@@ -224,18 +224,10 @@ def _step(arm, p, zone, state, dt, substeps):
             step_block(arm, inv, p, zone, index, n, state, dt, substeps)
 
 
-def step(
-    arm: ArmParams,
-    task: TaskParams,
-    zone: ContactZone,
-    state: dict[str, np.ndarray],
-    action: np.ndarray,
-    time_step: float,
-    substeps: int,
-) -> None:
-    """Advance every active environment by one environment step, in place.
+class KernelTask(NamedTuple):
+    """A task as the kernels take it (what :class:`~taskcomplexity.tasks.batched.BatchedReaching` builds once).
 
-    Parameters
+    Attributes
     ----------
     arm : ArmParams
         :meth:`taskcomplexity.tasks.dynamics.ArmDynamics.params` of the arm.
@@ -246,6 +238,25 @@ def step(
         whose forearm enters the block's contact zone keeps its state from before the step, is marked
         in ``handoff`` and made inactive; with the contact model, ``contact`` marks the environments
         the block acted on.
+    time_step : float
+        Physics time step, s.
+    substeps : int
+        Physics steps per environment step.
+    """
+
+    arm: ArmParams
+    task: TaskParams
+    zone: ContactZone
+    time_step: float
+    substeps: int
+
+
+def step(kernel: KernelTask, state: dict[str, np.ndarray], action: np.ndarray) -> None:
+    """Advance every active environment by one environment step, in place.
+
+    Parameters
+    ----------
+    kernel : KernelTask
     state : dict of ndarray
         ``joint_angles``, ``joint_velocities`` (B, dof) float64; ``target`` (B, 2); ``active``,
         ``success``, ``handoff``, ``contact``, ``done`` (B,) bool; ``returns``, ``reward`` (B,) float64;
@@ -253,9 +264,6 @@ def step(
         and ``done`` are this step's (0 and False for environments that were not active).
     action : ndarray (B, dof), float64
         Clipped to [−1, 1] inside.
-    time_step : float
-        Physics time step, s.
-    substeps : int
-        Physics steps per environment step.
     """
-    _step(arm, task, zone, env_state(state, action), float(time_step), int(substeps))
+    _step(kernel.arm, kernel.task, kernel.zone, env_state(state, action), float(kernel.time_step),
+          int(kernel.substeps))
