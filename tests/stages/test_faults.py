@@ -25,7 +25,10 @@ def test_ctrl_c_is_one_line_exit_130_and_the_rerun_resumes_to_the_same_returns(t
     outputs = tmp_path / "outputs"
     args = [sys.executable, RWG, "task=cartpole", "backend=gym", "rwg.policies=40", "rwg.episodes=4", "rwg.chunk_policies=2",
             f"paths.outputs={outputs}"]
-    job = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Ctrl-C as a terminal delivers it: a job started in the background by a non-interactive shell
+    # (a CI runner, `cmd &`) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt
+    job = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
     while time.time() < deadline and len(list(outputs.glob("cache/rwg/.partial-*/chunk-*.npz"))) < 2:
         time.sleep(0.05)
@@ -62,7 +65,10 @@ def test_a_full_disk_is_one_line_naming_the_path_and_the_rerun_resumes(small_dis
     outputs = small_disk / "outputs"
     args = [sys.executable, RWG, "task=cartpole", "backend=gym", "rwg.policies=40", "rwg.episodes=4",
             "rwg.chunk_policies=2", f"paths.outputs={outputs}"]
-    job = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Ctrl-C as a terminal delivers it: a job started in the background by a non-interactive shell
+    # (a CI runner, `cmd &`) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt
+    job = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
     while time.time() < deadline and not list(outputs.glob("cache/rwg/.partial-*/chunk-*.npz")):
         time.sleep(0.02)
