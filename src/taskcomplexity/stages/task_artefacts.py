@@ -50,7 +50,8 @@ def study_metrics(
     task ids); ``registry`` holds the metrics estimated.
     """
     names = names or [r.task.task_id for r in requests]
-    todo = [r for r in requests if force or cache.lookup(RWG_STAGE, r.key, r.identity()) is None]
+    # the bar's total: tasks without an artefact yet (a cheap existence test; run_rwg_stage verifies)
+    todo = [r for r in requests if force or not cache.path(RWG_STAGE, r.key).exists()]
     episodes = sum(r.settings.policies * r.settings.episodes for r in todo)
     rwg = StageLog("rwg")
     with stage_bar("rwg", episodes, "ep") if progress else nullcontext() as bar:
