@@ -273,8 +273,21 @@ def user_overrides() -> list[str]:
     return [*overrides.task, *(o for o in overrides.hydra if o.lstrip("+~").startswith("hydra.searchpath"))]
 
 
-def _entry_overrides(entry, typed: list[str], where: str) -> list[str]:
-    """Compose overrides of one study entry: the user's task-level overrides, then the entry's choices.
+def _typed_groups(typed: list[str]) -> set[str]:
+    """The config groups the command line chooses (``network=…``, not ``network.hidden=…``)."""
+    return {o.partition("=")[0].lstrip("+~") for o in typed} & set(TASK_GROUPS)
+
+
+def study_family(study, typed: list[str]) -> dict[str, str]:
+    """The study's ``network``/``prior`` options that apply: those the command line does not choose."""
+    chosen = _typed_groups(typed)
+    return {g: getattr(study, g) for g in ("network", "prior") if getattr(study, g) is not None and g not in chosen}
+
+
+def _entry_overrides(entry, typed: list[str], where: str, family: dict[str, str] | None = None) -> list[str]:
+    """Compose overrides of one study entry: the user's task-level overrides, then the study's policy
+    family (``family``: group → option, for the groups neither the entry nor the command line chooses),
+    then the entry's choices.
 
     A group the entry chooses for itself cannot also be chosen on the command line: that override
     would be silently ignored, so it is refused.
@@ -292,7 +305,8 @@ def _entry_overrides(entry, typed: list[str], where: str) -> list[str]:
     own = [f"{g}={entry.selection[g]}" for g in TASK_GROUPS if g in entry.selection]
     if "env_id" in entry.selection and "task" not in entry.selection:
         own.insert(0, "task=gym")
-    return forwarded + own
+    studied = [f"{g}={option}" for g, option in (family or {}).items() if g not in chosen]
+    return forwarded + studied + own
 
 
 def _compose(overrides: list[str], where: str):
@@ -311,20 +325,22 @@ def _compose(overrides: list[str], where: str):
         raise ConfigError(f"{where}: {message}") from err
 
 
-def entry_config(cfg: Any, entry, typed: list[str], where: str):
-    """The composed config of one study entry: ``typed`` overrides, then the entry's own choices.
+def entry_config(cfg: Any, entry, typed: list[str], where: str, family: dict[str, str] | None = None):
+    """The composed config of one study entry: ``typed`` overrides, the study's policy ``family``
+    (:func:`study_family`), then the entry's own choices.
 
-    What the entry does not choose (backend, the reaching arms' max_steps, prior and network) comes
-    from the study's own composed config ``cfg``, so values set there, by overrides or in code, reach
-    every task.
+    What neither the entry nor the study's family chooses (backend, the reaching arms' max_steps,
+    prior and network) comes from the study's own composed config ``cfg``, so values set there, by
+    overrides or in code, reach every task.
     """
     from omegaconf import open_dict
 
-    node = _compose(_entry_overrides(entry, typed, where), where)
+    family = family or {}
+    node = _compose(_entry_overrides(entry, typed, where, family), where)
     with open_dict(node):
         node.backend, node.max_steps = cfg.backend, cfg.max_steps
         for group in ("prior", "network"):
-            if group not in entry.selection:
+            if group not in entry.selection and group not in family:
                 node[group] = cfg[group]
         for key in ("env_id", "kwargs", "max_steps"):
             if key in entry.selection:
@@ -353,9 +369,15 @@ def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
         settings = dataclasses.replace(settings, **overrides)
         settings.validate()
     typed = user_overrides()
+    family = study_family(study, typed)
+    dirs = search_dirs(sys.argv)
+    for group, option in family.items():
+        allowed = sorted({p.stem for d in dirs for p in (d / group).glob("*.yaml")})
+        if option not in allowed:
+            raise ConfigError(f"study.{group}={option} is not a known {group} option (allowed: {', '.join(allowed)})")
     out = []
     for i, entry in enumerate(study.tasks):
-        node = entry_config(cfg, entry, typed, f"study.tasks[{i}]")
+        node = entry_config(cfg, entry, typed, f"study.tasks[{i}]", family)
         task = task_from_config(node)
         network, prior = sampler_from_config(node)
         out.append((entry, RWGRequest(task, network, prior, settings, resolve_backend(task, str(node.backend)))))
@@ -370,8 +392,19 @@ def check_study_settings(cfg: Any, study, requests) -> None:
     """
     from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings
 
-    metrics_settings_from_config(cfg)
-    build(DiagnosticsSettings, cfg.diagnostics, "diagnostics")
+    metrics = metrics_settings_from_config(cfg)
+    for request in requests:
+        policies = request.settings.policies
+        if metrics.batches > policies // 2:
+            raise ConfigError(f"metrics.batches={metrics.batches} needs at least 2 policies per batch, but N = "
+                              f"{policies} (rwg.policies or study.policies): allowed metrics.batches <= "
+                              f"{max(policies // 2, 2)}, or more policies")
+    diagnostics = build(DiagnosticsSettings, cfg.diagnostics, "diagnostics")
+    episodes = min(request.settings.episodes for request in requests)
+    if episodes <= diagnostics.knn_neighbors:
+        raise ConfigError(f"the diagnostics' k-NN estimate needs M > diagnostics.knn_neighbors = "
+                          f"{diagnostics.knn_neighbors} episodes per policy, but M = {episodes} (rwg.episodes or "
+                          f"study.episodes): allowed M >= {diagnostics.knn_neighbors + 1}")
     title = cfg.report.get("title")
     if title is not None and not isinstance(title, str):
         raise ConfigError(f"report.title must be a string or null (the study's own title), got {title!r}")
@@ -381,6 +414,12 @@ def check_study_settings(cfg: Any, study, requests) -> None:
     from taskcomplexity.stages.sac_stage import sac_settings_from_config
 
     settings = sac_settings_from_config(cfg.sac)
+    if not study.has_sac_budgets and settings.total_steps is None:
+        typed = [o for o in user_overrides() if o.partition("=")[0].lstrip("+~") == "sac.enabled"]
+        if typed:
+            raise ConfigError(f"{typed[-1]}: study {study.name} gives no SAC budget (sac_steps) to any task, so it "
+                              "has no SAC reference; set sac.total_steps to train SAC on it")
+        return
     for entry, request in zip(study.tasks, requests, strict=True):
         if sac_skip_reason(request.task) is None:
             with_budget(settings, entry.sac_steps, task_id=entry.id)

@@ -15,10 +15,15 @@ Example::
       - {easier: cart, harder: pend, kind: "swing-up"}
     orders: {}            # optional: name -> list of ids, easiest first (Kendall's tau)
     reference: {}         # optional: id -> a reference score (higher = easier; Pearson/Spearman r)
+    algorithm_scores: {}  # optional: id -> {max: A_max, average: A_avg} of a learning algorithm
+                          # (Score(A) and Score(R) of Furuta et al. 2021, correlated with every metric)
+    network: null         # optional: the policy family of entries that choose none (the command line's
+    prior: null           # network=/prior= still wins), e.g. the original PIC/POIC family
 """
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -74,6 +79,22 @@ class StudyTask:
 
 
 @dataclass(frozen=True)
+class AlgorithmScore:
+    """A learning algorithm's scores on one task (Furuta et al. 2021): the reference of Score(A).
+
+    Attributes
+    ----------
+    max : float
+        A_max, the best return the algorithm reached (return units).
+    average : float
+        A_avg, its average final return (return units).
+    """
+
+    max: float
+    average: float
+
+
+@dataclass(frozen=True)
 class PublishedScale:
     """N, M and B of a published table: PIC's histogram estimator depends on all three.
 
@@ -112,6 +133,12 @@ class Study:
         Named total orders of task ids, easiest first (Kendall's τ per order).
     reference : mapping of str to float
         Optional reference scores per task id, higher = easier.
+    algorithm_scores : mapping of str to AlgorithmScore
+        Optional scores of a learning algorithm per task id, from which the verdict derives Score(A)
+        and Score(R) (:mod:`taskcomplexity.verdict.references`).
+    network, prior : str or None
+        Config options (``network/<name>.yaml``, ``prior/<name>.yaml``) of every entry that chooses
+        none, unless the command line chooses one (None: the composed config's).
     kind : {'tasks', 'variants'}
         ``variants``: the entries are prior/network variants of one task (an ablation), compared by
         their return distributions rather than judged by relations.
@@ -127,6 +154,9 @@ class Study:
     relations: tuple[Relation, ...] = ()
     orders: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     reference: Mapping[str, float] = field(default_factory=dict)
+    algorithm_scores: Mapping[str, AlgorithmScore] = field(default_factory=dict)
+    network: str | None = None
+    prior: str | None = None
     kind: str = "tasks"
     policies: int | None = None
     episodes: int | None = None
@@ -149,6 +179,12 @@ class Study:
         except KeyError:
             return task_id
 
+    @property
+    def has_sac_budgets(self) -> bool:
+        """Whether any task gives a SAC budget: a study without any has no SAC reference (its reference is
+        e.g. ``algorithm_scores``), and SAC runs on it only with ``sac.total_steps``."""
+        return any(t.sac_steps is not None for t in self.tasks)
+
     def relations_among(self, ids) -> tuple[Relation, ...]:
         """The relations whose two tasks are both in ``ids``, in study order."""
         present = set(ids)
@@ -160,7 +196,8 @@ def study_from_config(node: Any) -> Study:
     node = _plain(node)
     if not isinstance(node, Mapping):
         raise ConfigError(f"study must be a mapping (name, tasks, relations, …), got {node!r}")
-    allowed = {"name", "tasks", "relations", "orders", "reference", "kind", "policies", "episodes", "published"}
+    allowed = {"name", "tasks", "relations", "orders", "reference", "algorithm_scores", "network", "prior", "kind",
+               "policies", "episodes", "published"}
     unknown = sorted(set(node) - allowed)
     if unknown:
         raise ConfigError(f"study.{unknown[0]} is not a known key (allowed: {', '.join(sorted(allowed))})")
@@ -192,14 +229,37 @@ def study_from_config(node: Any) -> Study:
         if isinstance(score, bool) or not isinstance(score, (int, float)):
             raise ConfigError(f"study.reference.{task_id} must be a number, got {score!r}")
         reference[str(task_id)] = float(score)
+    algorithm_scores = {str(task_id): _algorithm_score(score, task_id, ids)
+                        for task_id, score in (node.get("algorithm_scores") or {}).items()}
+    family = {}
+    for key in ("network", "prior"):
+        value = node.get(key)
+        if value is not None and (not isinstance(value, str) or not re.fullmatch(r"[A-Za-z0-9_.\-]+", value)):
+            raise ConfigError(f"study.{key} must be the name of a {key}/ config option or null, got {value!r}")
+        family[key] = value
     counts = {}
     for key in ("policies", "episodes"):
         value = node.get(key)
         if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 2):
             raise ConfigError(f"study.{key} must be an integer >= 2 or null, got {value!r}")
         counts[key] = value
-    return Study(name=name, tasks=tasks, relations=relations, orders=orders, reference=reference, kind=kind,
-                 published=_published(node.get("published")), **counts)
+    return Study(name=name, tasks=tasks, relations=relations, orders=orders, reference=reference,
+                 algorithm_scores=algorithm_scores, kind=kind, published=_published(node.get("published")),
+                 **family, **counts)
+
+
+def _algorithm_score(node: Any, task_id: Any, ids: list[str]) -> AlgorithmScore:
+    where = f"study.algorithm_scores.{task_id}"
+    _known("study.algorithm_scores", task_id, ids)
+    if not isinstance(node, Mapping) or set(node) != {"max", "average"}:
+        raise ConfigError(f"{where} must be {{max: A_max, average: A_avg}} (returns), got {node!r}")
+    for key in ("max", "average"):
+        value = node[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"{where}.{key} must be a finite number, got {value!r}")
+    if node["average"] > node["max"]:
+        raise ConfigError(f"{where}: average {node['average']} exceeds max {node['max']} (A_avg <= A_max)")
+    return AlgorithmScore(max=float(node["max"]), average=float(node["average"]))
 
 
 def _published(node: Any) -> PublishedScale | None:

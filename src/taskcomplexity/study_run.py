@@ -4,6 +4,7 @@ imports the other."""
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 from pathlib import Path
@@ -29,13 +30,38 @@ def write_report(artefacts: StudyArtefacts, out_dir: Path, title: str, *, regist
                         alpha=artefacts.alpha, registry=registry)
 
 
+def sweep_job_dir() -> Path | None:
+    """The Hydra job directory of this process when it is a job of a multirun (None otherwise)."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
+    if not HydraConfig.initialized() or HydraConfig.get().mode != RunMode.MULTIRUN:
+        return None
+    return Path(HydraConfig.get().runtime.output_dir)
+
+
 def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
-    """Compute or reuse every artefact of the study and write its report; return index.html."""
+    """Compute or reuse every artefact of the study and write its report; return index.html.
+
+    The report goes to ``<paths.outputs>/reports/<study>[-<tag>]/``; a job of a multirun writes it into
+    its own job directory instead (``<sweep dir>/<job>/report``, so the cells of a sweep do not overwrite
+    one another) and records itself there for the sweep report (:mod:`taskcomplexity.report.sweep`).
+    """
     started = time.time()
     artefacts = study_artefacts(cfg, registry=registry)
     name = artefacts.name
     title = cfg.report.get("title") or f"How hard is each task? ({name})"
-    index = write_report(artefacts, Path(cfg.paths.outputs) / "reports" / name, title, registry=registry)
+    job = sweep_job_dir()
+    out_dir = job / "report" if job is not None else Path(cfg.paths.outputs) / "reports" / name
+    index = write_report(artefacts, out_dir, title, registry=registry)
+    if job is not None:
+        from hydra.core.hydra_config import HydraConfig
+
+        from taskcomplexity.report.sweep import JOB_FILE
+
+        record = {"study": name, "overrides": list(HydraConfig.get().overrides.task),
+                  "verdict": str(artefacts.verdict.path.resolve()), "report": str(index.resolve())}
+        (job / JOB_FILE).write_text(json.dumps(record, indent=1), encoding="utf-8")
     elapsed = time.time() - started
     print(f"\nStudy '{name}' finished in {elapsed:.0f} s.\nReport: {index.resolve()}", flush=True)
     return index

@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from taskcomplexity.cli import CONF_DIR
+from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics import DEFAULT_REGISTRY, Metric
-from taskcomplexity.study import Relation, load_study_file
+from taskcomplexity.study import Relation, load_study_file, study_from_config
 from taskcomplexity.verdict import by_relation, judge, pairwise_welch, summarise
+from taskcomplexity.verdict.references import correlations, quantities, reference_scores
 
 SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 RELATIONS, TASKS, TOTAL_ORDERS = SEVEN_TASKS.relations, SEVEN_TASKS.ids, SEVEN_TASKS.orders
@@ -167,17 +171,51 @@ def test_kendall_tau_is_nan_with_fewer_than_two_tasks_of_an_order():
 
 def test_reference_scores_are_correlated_with_the_metrics_easiness():
     reference = {t: 10.0 - d for t, d in DIFFICULTY.items()}  # higher = easier
-    pic = measures("pic", {t: 2 * v + 1 for t, v in reference.items()}, spread=0.01)  # exactly linear in it
-    steps = measures("steps_needed", {t: float(d) ** 2 for t, d in DIFFICULTY.items()}, spread=0.01)  # monotone
-    values = pd.concat([pic[0], steps[0]])
-    summary = summarise(judge(values, pd.concat([pic[1], steps[1]]), RELATIONS, registry=REGISTRY), values,
-                        registry=REGISTRY, reference=reference).set_index("metric")
-    assert summary.loc["pic", "pearson_r"] == pytest.approx(1.0)
-    assert summary.loc["pic", "spearman_r"] == pytest.approx(1.0)
+    study = dataclasses.replace(SEVEN_TASKS, reference=reference)
+    pic = measures("pic", {t: 2 * v + 1 for t, v in reference.items()}, spread=0.01)[0]  # exactly linear in it
+    steps = measures("steps_needed", {t: float(d) ** 2 for t, d in DIFFICULTY.items()}, spread=0.01)[0]  # monotone
+    h_r = pd.DataFrame({"task": list(DIFFICULTY), "quantity": "h_r", "metric": "pic",
+                        "value": [-float(d) for d in DIFFICULTY.values()]})
+    table = correlations(quantities(pd.concat([pic, steps]), h_r, registry=REGISTRY),
+                         reference_scores(study, {})).set_index("quantity")
+    assert list(table.index) == ["pic", "h_r", "steps_needed"]  # registry order, a metric's details after it
+    assert (table["reference"] == "reference").all() and (table["tasks"] == 7).all()
+    assert table.loc["pic", "pearson_r"] == pytest.approx(1.0)
+    assert table.loc["pic", "spearman_r"] == pytest.approx(1.0)
+    assert table.loc["h_r", "pearson_r"] == pytest.approx(1.0)  # a detail is correlated as it is
     # lower steps = easier: the easiness is -d², perfectly rank-correlated, not linearly
-    assert summary.loc["steps_needed", "spearman_r"] == pytest.approx(1.0)
-    assert 0.9 < summary.loc["steps_needed", "pearson_r"] < 1.0
-    assert summary.loc["pic", "pearson_p"] < 1e-6
+    assert table.loc["steps_needed", "spearman_r"] == pytest.approx(1.0)
+    assert 0.9 < table.loc["steps_needed", "pearson_r"] < 1.0
+    assert table.loc["pic", "pearson_p"] < 1e-6
+
+
+def test_score_a_and_score_r_put_the_algorithm_and_the_random_mean_on_one_scale():
+    study = study_from_config({
+        "name": "s", "tasks": [{"task": "cartpole"}, {"task": "pendulum"}, {"task": "acrobot"}],
+        "algorithm_scores": {"cartpole": {"max": 200, "average": 194.2},
+                             "pendulum": {"max": -128.6, "average": -571.5}}})
+    bounds = {"cartpole": {"r_min": 9.0, "r_max": 150.0, "r_mean": 30.0},   # A_max above r_max: it sets the scale
+              "pendulum": {"r_min": -1600.0, "r_max": -100.0, "r_mean": -1200.0},  # r_max above A_max
+              "acrobot": {"r_min": -500.0, "r_max": -60.0, "r_mean": -499.0}}  # no algorithm score: none
+    table = reference_scores(study, bounds).set_index(["task", "reference"])["value"]
+    assert table[("cartpole", "score_a")] == pytest.approx((194.2 - 9.0) / (200.0 - 9.0))
+    assert table[("cartpole", "score_r")] == pytest.approx((30.0 - 9.0) / (200.0 - 9.0))
+    assert table[("pendulum", "score_a")] == pytest.approx((-571.5 + 1600.0) / 1500.0)
+    assert table[("pendulum", "score_r")] == pytest.approx(400.0 / 1500.0)
+    assert "acrobot" not in table.index.get_level_values("task")
+    empty = {"cartpole": {"r_min": 200.0, "r_max": 200.0, "r_mean": 200.0}}  # every return equal to A_max
+    assert np.isnan(reference_scores(study, empty)["value"]).all()
+
+
+@pytest.mark.parametrize(("scores", "message"), [
+    ({"mountain_car": {"max": 1.0, "average": 0.5}}, r"study\.algorithm_scores=mountain_car is not a task"),
+    ({"cartpole": {"max": 1.0}}, r"study\.algorithm_scores\.cartpole must be \{max: A_max, average: A_avg\}"),
+    ({"cartpole": {"max": "high", "average": 0.5}}, r"study\.algorithm_scores\.cartpole\.max must be a finite"),
+    ({"cartpole": {"max": 1.0, "average": 2.0}}, r"average 2\.0 exceeds max 1\.0"),
+])
+def test_algorithm_scores_are_checked_against_the_study(scores, message):
+    with pytest.raises(ConfigError, match=message):
+        study_from_config({"name": "s", "tasks": [{"task": "cartpole"}], "algorithm_scores": scores})
 
 
 def test_verdicts_by_relation_show_which_survive_a_change_of_estimator():

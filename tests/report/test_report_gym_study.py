@@ -3,6 +3,7 @@ stages into a report: nothing about the paper's arms is needed."""
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -85,3 +86,42 @@ def test_a_study_without_relations_shows_its_metrics_and_says_there_is_nothing_t
     assert set(values["metric"]) == set(summary["metric"]) and set(values["task"]) == {"pend"}
     table1 = pd.read_csv(index.parent / "tables" / "table1.csv")
     assert table1["Task"].tolist() == ["Pendulum"]
+
+
+SCORED = study_from_config({
+    "name": "scored",
+    "tasks": [{"id": "cart", "env_id": "CartPole-v1"}, {"id": "pend", "env_id": "Pendulum-v1"},
+              {"id": "car", "env_id": "MountainCarContinuous-v0"}],
+    "algorithm_scores": {"cart": {"max": 500.0, "average": 480.0}, "pend": {"max": -130.0, "average": -570.0},
+                         "car": {"max": 95.9, "average": 12.9}},
+})
+
+
+def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp_path, run_stages):
+    found = run_stages(tmp_path, SCORED, requests("CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0"),
+                       diagnostics=False)
+    metrics = {r.task_id: pd.read_parquet(r.metrics.file("metrics.parquet")).iloc[0] for r in found["results"]}
+    references = pd.read_parquet(found["verdict"].file("references.parquet")).set_index(["task", "reference"])
+    for task, score in SCORED.algorithm_scores.items():  # the definitions, from the metrics artefact's bounds
+        m = metrics[task]
+        span = max(m["r_max"], score.max) - m["r_min"]
+        assert references.loc[(task, "score_a"), "value"] == pytest.approx((score.average - m["r_min"]) / span)
+        assert references.loc[(task, "score_r"), "value"] == pytest.approx((m["r_mean"] - m["r_min"]) / span)
+    correlated = pd.read_parquet(found["verdict"].file("correlations.parquet"))
+    metric_rows = correlated[correlated["quantity"] == correlated["metric"]]
+    assert set(metric_rows["metric"]) == {m.name for m in DEFAULT_REGISTRY.of_stage("metrics")}
+    assert {"h_r", "h_r_given_theta", "h_o", "h_o_given_theta"} <= set(correlated["quantity"])
+    assert set(correlated["reference"]) == {"score_a", "score_r"} and (correlated["tasks"] == 3).all()
+    pic = correlated.set_index(["quantity", "reference"]).loc[("pic", "score_a")]
+    values = [metrics[t]["pic"] for t in ("cart", "pend", "car")]
+    x = [references.loc[(t, "score_a"), "value"] for t in ("cart", "pend", "car")]
+    assert pic["pearson_r"] == pytest.approx(float(np.corrcoef(x, values)[0, 1]))
+
+    index = build_report(found["results"], study=SCORED, verdict=found["verdict"], diagnostics=None,
+                         sac_curves=None, out_dir=tmp_path / "report", title="Scored")
+    tables = index.parent / "tables"
+    table = pd.read_csv(tables / "reference_scores.csv")
+    assert list(table.columns[-2:]) == ["Score(A)", "Score(R)"] and {"H(O)", "H(R|Θ)"} <= set(table.columns)
+    text = index.read_text(encoding="utf-8")
+    assert "Against Score(A) across 3 tasks, PIC r = " in text
+    assert pd.read_csv(tables / "reference_correlations.csv")["Quantity"].iloc[0] == "PIC"

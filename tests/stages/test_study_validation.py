@@ -34,3 +34,30 @@ def test_a_study_task_without_a_sac_budget_is_refused_before_any_work(compose_co
     with pytest.raises(ConfigError, match=r"no SAC budget for task two_link-dense"):
         run_study(cfg)
     assert not list((Path(cfg.paths.outputs) / "cache").rglob("*.parquet"))
+
+
+@pytest.mark.parametrize(("overrides", "message"), [
+    (("rwg.policies=8",), r"metrics\.batches=5 needs at least 2 policies per batch, but N = 8 .*allowed "
+                          r"metrics\.batches <= 4"),
+    (("rwg.episodes=3",), r"k-NN estimate needs M > diagnostics\.knn_neighbors = 3 .* but M = 3"),
+])
+def test_sizes_the_estimators_cannot_use_are_refused_before_any_work(compose_config, overrides, message):
+    cfg = compose_config("experiment=smoke", "sac.enabled=false", *overrides)
+    with pytest.raises(ConfigError, match=message):
+        run_study(cfg)
+    assert not list((Path(cfg.paths.outputs) / "cache").rglob("*.parquet"))
+
+
+def test_a_study_without_sac_budgets_refuses_a_typed_sac_enabled_in_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run([sys.executable, str(root / "pipelines" / "study.py"), "study=classic_control",
+                           "sac.enabled=true", f"paths.outputs={tmp_path}"], capture_output=True, text=True,
+                          timeout=600, cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        "error: sac.enabled=true: study classic_control gives no SAC budget (sac_steps) to any task, so it has no "
+        "SAC reference; set sac.total_steps to train SAC on it"]
+    assert not list(tmp_path.rglob("*.parquet"))

@@ -116,7 +116,7 @@ def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compos
     for entry, request in pairs:
         assert request.backend == request.task.backends[0]  # backend=auto: the task's fastest
         for group, cls in (("prior", PriorSpec), ("network", NetworkSpec)):
-            chosen = entry.selection.get(group, {"prior": "normal", "network": "mlp32"}[group])
+            chosen = entry.selection.get(group, getattr(loaded, group) or {"prior": "normal", "network": "mlp32"}[group])
             expected = build(cls, yaml.safe_load((CONF_DIR / group / f"{chosen}.yaml").read_text()), group)
             assert getattr(request, group) == expected
     for relation in loaded.relations:
@@ -185,3 +185,31 @@ def test_experiment_published_without_a_published_scale_is_one_line(compose_conf
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith("error: rwg.policies = ${study.published.policies}, but the config has no "
                            "study.published.policies (experiment=published runs at the scale")
+
+
+def test_a_studys_policy_family_applies_unless_the_command_line_or_the_entry_chooses(compose_config):
+    from taskcomplexity.cli import _entry_overrides, entry_config, study_family
+    from taskcomplexity.study import study_from_config
+
+    study = study_from_config({"name": "s", "network": "pic_h2_64", "prior": "normal",
+                               "tasks": [{"task": "cartpole"}, {"task": "pendulum", "network": "pic_h1_4"}]})
+    cfg = compose_config("study=classic_control")
+    family = study_family(study, [])
+    assert family == {"network": "pic_h2_64", "prior": "normal"}
+    node = entry_config(cfg, study.tasks[0], [], "study.tasks[0]", family)
+    assert list(node.network.hidden) == [64, 64] and node.network.activation == "tanh"
+    assert list(entry_config(cfg, study.tasks[1], [], "study.tasks[1]", family).network.hidden) == [4]
+    # the command line's network= wins over the study's; a key override applies on top of the study's family
+    assert study_family(study, ["network=pic_h1_32"]) == {"prior": "normal"}
+    assert _entry_overrides(study.tasks[0], ["network.hidden=[8]"], "study.tasks[0]", family) == [
+        "network.hidden=[8]", "network=pic_h2_64", "prior=normal", "task=cartpole"]
+    node = entry_config(cfg, study.tasks[0], ["network.hidden=[8]"], "study.tasks[0]", family)
+    assert list(node.network.hidden) == [8] and node.network.activation == "tanh"
+
+
+def test_an_unknown_study_network_is_one_line_naming_the_options(compose_config):
+    from taskcomplexity.cli import study_requests
+
+    cfg = compose_config("study=classic_control", "study.network=pic_h9_9")
+    with pytest.raises(ConfigError, match=r"study\.network=pic_h9_9 is not a known network option \(allowed: "):
+        study_requests(cfg)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
+from taskcomplexity.report.format import num, pvalue
 from taskcomplexity.report.verdict_tables import survival_tables
+from taskcomplexity.verdict.references import reference_label
 
 
 def _count(summary: pd.DataFrame, metric: str) -> tuple[int, int]:
@@ -25,6 +27,10 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
     """
     verdict, summary, registry = data.verdict["verdict"], data.verdict["summary"], data.registry
     if verdict.empty:
+        correlated = reference_sentences(data)
+        if correlated:
+            return correlated + ["The study gives no relation (easier, harder, kind) to judge, so there is no "
+                                 "verdict by relation."]
         return [f"The study gives no relation to judge between its {len(data.tasks)} "
                 f"task{'s' if len(data.tasks) != 1 else ''}, so there is no verdict: the page shows the metrics of "
                 "each task. Add relations (easier, harder, kind) to the study file to judge them."]
@@ -58,8 +64,30 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
         judged = int(first["relations"]) - int(first["undefined"])
         sentences.append(f"The empirical order of training ({first['label']}) agrees with {int(first['agreements'])} "
                          f"of {judged} relations it could judge.")
+    sentences += reference_sentences(data)
     for quantity, table in survival_tables(data).items():
         others = list(table.columns[2:-1])
         sentences.append(f"{int((table['Survives'] == 'yes').sum())} of {len(table)} verdicts on {quantity} "
                          f"survive a change of estimator ({', '.join(others)}).")
+    return sentences
+
+
+def reference_sentences(data: StudyData) -> list[str]:
+    """One sentence per reference score: the primary metrics' Pearson r with it, and the measure most
+    correlated with it (from the verdict's ``correlations``)."""
+    correlated, registry = data.verdict["correlations"], data.registry
+    metrics = correlated[(correlated["quantity"] == correlated["metric"]) & correlated["pearson_r"].notna()]
+    sentences = []
+    for reference, rows in metrics.groupby("reference", sort=False):
+        rows = rows.set_index("metric")
+        primary = [m.name for m in registry if m.primary and m.name in rows.index]
+        parts = [f"{registry.label(m)} r = {num(rows.loc[m, 'pearson_r'], 2)} (p = {pvalue(rows.loc[m, 'pearson_p'])})"
+                 for m in primary]
+        best = rows["pearson_r"].idxmax()
+        tasks = int(rows["tasks"].max())
+        sentence = f"Against {reference_label(reference)} across {tasks} tasks, " + (
+            "; ".join(parts) + "; " if parts else "")
+        sentences.append(sentence + f"the measure most correlated with it is {registry.label(best)} "
+                                    f"(r = {num(rows.loc[best, 'pearson_r'], 2)}, p = "
+                                    f"{pvalue(rows.loc[best, 'pearson_p'])}; Pearson, on the metrics' easiness).")
     return sentences

@@ -19,8 +19,16 @@ from taskcomplexity.report.tables import (
     table1,
     welch_display,
 )
-from taskcomplexity.report.verdict_tables import summary_display, survival_tables, verdict_display, verdict_matrix
+from taskcomplexity.report.verdict_tables import (
+    correlation_display,
+    reference_table,
+    summary_display,
+    survival_tables,
+    verdict_display,
+    verdict_matrix,
+)
 from taskcomplexity.report.writer import Writer
+from taskcomplexity.verdict.references import reference_label
 
 SCORE = "score"
 """The metric on the vertical axes of the score scatter (when registered)."""
@@ -50,9 +58,25 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
                "The study gives no relation, so nothing is counted")
     caption += ("; Kendall's τ between each known order of the study and the metric's order (+1: exactly as "
                 "known, −1: reversed)" if data.study.orders else "")
-    caption += ("; Pearson and Spearman r with the study's reference scores (higher = easier)"
-                if data.study.reference else "")
+    references = data.verdict["references"]
+    named = joined(reference_label(n) for n in dict.fromkeys(references["reference"]))
+    caption += (f"; Pearson r (p) of the metric's easiness with {named} across tasks (higher = easier)"
+                if len(references) else "")
     blocks.append(writer.table(summary_display(data), "verdict_summary", "Verdict per metric.", caption + "."))
+    if len(references):
+        algorithm = ("Score(A) = (A_avg − r_min)/(max(r_max, A_max) − r_min) and Score(R) = (r_mean − r_min)/"
+                     "(max(r_max, A_max) − r_min), with r_min the worst policy mean, r_max the best episode return "
+                     "and A_max, A_avg the study's algorithm scores (Furuta et al. 2021). "
+                     if data.study.algorithm_scores else "")
+        blocks.append(writer.table(
+            reference_table(data), "reference_scores", "Metrics and reference scores per task.",
+            "Point estimates on the whole sample (nats for the entropies and PIC/POIC, returns for r_mean; "
+            "variance is Var(R)/(r_max − r_min)) beside the reference scores. " + algorithm))
+        blocks.append(writer.table(
+            correlation_display(data), "reference_correlations", f"Correlation with {named}.",
+            "Pearson r (two-sided p) and Spearman ρ across tasks between each reference score and each metric's "
+            "easiness (its value, negated when lower is easier) or each entropy as it is. With a handful of "
+            "tasks only |r| near 1 is evidence."))
     return tuple(blocks)
 
 

@@ -1,13 +1,16 @@
-"""Display tables of the verdict artefact: the relation × metric matrix, the summary, survival, the full table."""
+"""Display tables of the verdict artefact: the relation × metric matrix, the summary, survival, the full
+table, the reference scores and the correlations with them."""
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import num, pvalue
+from taskcomplexity.report.format import MISSING, num, pvalue
 from taskcomplexity.report.labels import kind_label
 from taskcomplexity.verdict import by_relation
+from taskcomplexity.verdict.references import reference_label
 
 SYMBOLS = {"agree": "✓", "contradict": "✗", "not significant": "–", "undefined": "?"}
 RELATION = "Known relation (easier < harder)"
@@ -78,11 +81,66 @@ def summary_display(data: StudyData) -> pd.DataFrame:
             table["Undefined"] = summary["undefined"]
     for column in [c for c in summary.columns if c.startswith("kendall_tau_")]:
         table[f"τ {column.removeprefix('kendall_tau_')}"] = summary[column].map(lambda x: num(x, 2))
-    for name, title in (("pearson", "Pearson r"), ("spearman", "Spearman r")):
-        if f"{name}_r" in summary.columns:
-            table[f"{title} (p)"] = [f"{num(r, 2)} ({pvalue(p)})" for r, p in zip(summary[f"{name}_r"],
-                                                                                summary[f"{name}_p"], strict=True)]
+    correlated = data.verdict["correlations"]
+    for reference in dict.fromkeys(correlated["reference"]):
+        chosen = correlated[(correlated["reference"] == reference) & (correlated["quantity"] == correlated["metric"])]
+        cells = {q: r_p(r, p) for q, r, p in zip(chosen["quantity"], chosen["pearson_r"], chosen["pearson_p"],
+                                                   strict=True)}
+        table[f"r with {reference_label(reference)} (p)"] = [cells.get(m, MISSING) for m in summary["metric"]]
     return table
+
+
+def r_p(r: float, p: float) -> str:
+    """``r (p)`` of a correlation."""
+    return f"{num(r, 2)} ({pvalue(p)})"
+
+
+def quantity_label(data: StudyData, name: str) -> str:
+    """Display label of a metric or of a metric's detail (e.g. H(R))."""
+    if name in data.registry:
+        return data.registry.label(name)
+    for metric in data.registry:
+        for detail in metric.details:
+            if detail.name == name:
+                return detail.label
+    return name
+
+
+def reference_table(data: StudyData) -> pd.DataFrame:
+    """Per task: every metric of the metrics stage with its shown details, then the reference scores
+    (Score(R), Score(A) of Furuta et al. 2021, or the study's own): the original PIC/POIC protocol's table."""
+    references = data.verdict["references"]
+    names = list(dict.fromkeys(references["reference"]))
+    scores = references.set_index(["task", "reference"])["value"]
+    columns = [(name, quantity_label(data, name)) for m in data.registry.of_stage("metrics")
+               for name in (m.name, *(d.name for d in m.details if d.shown))]
+    rows = []
+    for _, r in data.metrics.iterrows():
+        row = {"Task": data.name(r["task"])}
+        row.update({label: num(r[name]) for name, label in columns if name in r})
+        row.update({reference_label(n): num(scores.get((r["task"], n), np.nan), 3) for n in names})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def correlation_display(data: StudyData) -> pd.DataFrame:
+    """Pearson r (p) and Spearman ρ of every metric and shown detail with every reference score, across tasks."""
+    correlated = data.verdict["correlations"]
+    references = list(dict.fromkeys(correlated["reference"]))
+    rows = []
+    for quantity, group in correlated.groupby("quantity", sort=False):
+        by_reference = group.set_index("reference")
+        metric = by_reference["metric"].iloc[0]
+        row = {"Quantity": quantity_label(data, quantity),
+               "Of metric": "" if quantity == metric else data.registry.label(metric)}
+        for reference in references:
+            if reference in by_reference.index:
+                c = by_reference.loc[reference]
+                row[f"r with {reference_label(reference)} (p)"] = r_p(c["pearson_r"], c["pearson_p"])
+                row[f"ρ with {reference_label(reference)}"] = num(c["spearman_r"], 2)
+        row["Tasks"] = int(group["tasks"].max())
+        rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def survival_tables(data: StudyData) -> dict[str, pd.DataFrame]:

@@ -26,7 +26,8 @@ log = logging.getLogger(__name__)
 
 
 def _sac_curves(cfg: Any, cache, results):
-    """Learning curves of every task of the study (None when the SAC stage is unavailable).
+    """Learning curves of every task of the study (None when the SAC stage is unavailable, or when the
+    study gives no task a SAC budget and ``sac.total_steps`` is not set).
 
     With ``sac.enabled=false`` nothing is trained: the curves the cache holds for these SAC settings
     are used, the tasks it lacks are listed in ``curves.attrs["sac_missing"]`` and the command that
@@ -40,6 +41,9 @@ def _sac_curves(cfg: Any, cache, results):
         log.warning("SAC stage unavailable; the report will say so")
         return None
     study = study_from(cfg)  # each entry carries its SAC budget (sac_steps) and solved_return
+    if not study.has_sac_budgets and cfg.sac.get("total_steps") is None:
+        log.info("SAC: study %s gives no SAC budget (sac_steps) to any task, so it has no SAC reference", study.name)
+        return None
     tasks = [(study.task(r.task_id), r.request.task) for r in results]
     curves = study_sac_curves(cache, tasks, cfg.sac, force=bool(cfg.force), progress=True, cached_only=not enabled)
     if not enabled:

@@ -6,8 +6,11 @@ Outputs under ``<cache>/verdict/<key>/``:
   order (columns :data:`taskcomplexity.verdict.VERDICT_COLUMNS`: ``metric, easier, harder, kind,
   value_easier, value_harder, pvalue, outcome`` and the direction, difference, significance and
   sample sizes);
-- ``summary.parquet``: one row per metric: outcome counts, Kendall's τ per study order, Pearson and
-  Spearman r with the study's reference scores (when it gives them);
+- ``summary.parquet``: one row per metric: outcome counts, Kendall's τ per study order;
+- ``references.parquet`` (``task, reference, value``): the study's reference scores, and Score(A) and
+  Score(R) when it gives algorithm scores (:mod:`taskcomplexity.verdict.references`);
+- ``correlations.parquet``: Pearson and Spearman r (with p) of every metric (by its easiness) and
+  every shown detail (e.g. H(R)) with each reference score, across tasks (empty without references);
 - ``values.parquet`` / ``samples.parquet``: the tidy values (``task, metric, value``) judged and
   the samples of their Welch tests;
 - ``welch.parquet``: Welch's test between every ordered pair of tasks for every metric with at least
@@ -17,7 +20,7 @@ Outputs under ``<cache>/verdict/<key>/``:
   steps to 90 % per (task, variant, seed).
 
 The key hashes the metrics and diagnostics keys of every task, a content hash of the SAC curves,
-the study's relations, orders and reference scores, the significance cut-off and the registry's
+the study's relations, orders, reference scores and algorithm scores, the significance cut-off and the registry's
 signature, so any change upstream (or a new metric) recomputes the verdict.
 """
 
@@ -34,14 +37,16 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.study import Study
-from taskcomplexity.verdict import gather, judge, pairwise_welch, summarise
+from taskcomplexity.verdict import gather, gather_details, judge, pairwise_welch, summarise
 from taskcomplexity.verdict.gather import RETURN_MATRIX_STAGES
+from taskcomplexity.verdict.references import correlations, quantities, reference_scores
 
 log = logging.getLogger(__name__)
 
 STAGE = "verdict"
-VERSION = 1
-FILES = ("verdict.parquet", "summary.parquet", "values.parquet", "samples.parquet", "welch.parquet")
+VERSION = 2
+FILES = ("verdict.parquet", "summary.parquet", "references.parquet", "correlations.parquet", "values.parquet",
+         "samples.parquet", "welch.parquet")
 SAC_FILE = "sac_per_seed.parquet"
 
 
@@ -72,6 +77,7 @@ def verdict_key(
         "relations": [[r.easier, r.harder, r.kind] for r in study.relations_among(ids)],
         "orders": {name: list(order) for name, order in study.orders.items()},
         "reference": dict(study.reference),
+        "algorithm_scores": {t: [a.max, a.average] for t, a in study.algorithm_scores.items()},
         "alpha": float(alpha),
         "registry": registry.signature(),
     }
@@ -96,7 +102,7 @@ def run_verdict_stage(
     cache : Cache
         The artefact store.
     study : Study
-        Its relations (among the tasks of ``metrics``), orders and reference scores are judged.
+        Its relations (among the tasks of ``metrics``), orders, reference and algorithm scores are judged.
     metrics : mapping of task id to Artefact
         Each task's metrics artefact, in study order.
     diagnostics : mapping of task id to Artefact, optional
@@ -128,10 +134,16 @@ def run_verdict_stage(
         values, samples, per_seed = gather(tables, registry=registry, sac_curves=sac_curves)
         relations = study.relations_among(list(metrics))
         table = judge(values, samples, relations, registry=registry, alpha=alpha)
-        summary = summarise(table, values, registry=registry, orders=study.orders, reference=study.reference)
+        summary = summarise(table, values, registry=registry, orders=study.orders)
+        bounds = {t: f["metrics.parquet"].iloc[0] for t, f in tables["metrics"].items()
+                  if {"r_min", "r_max", "r_mean"} <= set(f["metrics.parquet"].columns)}
+        references = reference_scores(study, bounds)
+        correlated = correlations(quantities(values, gather_details(tables, registry=registry), registry=registry),
+                                  references)
         welch = pairwise_welch(samples, registry=registry, alpha=alpha)
-        for name, frame in (("verdict.parquet", table), ("summary.parquet", summary), ("values.parquet", values),
-                            ("samples.parquet", samples), ("welch.parquet", welch)):
+        for name, frame in (("verdict.parquet", table), ("summary.parquet", summary),
+                            ("references.parquet", references), ("correlations.parquet", correlated),
+                            ("values.parquet", values), ("samples.parquet", samples), ("welch.parquet", welch)):
             frame.to_parquet(directory / name, index=False)
         if per_seed is not None:
             per_seed.to_parquet(directory / SAC_FILE, index=False)

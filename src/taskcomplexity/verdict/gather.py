@@ -70,3 +70,29 @@ def gather(
 def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:
     parts = [p for p in parts if not p.empty]
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(TIDY_COLUMNS))
+
+
+def gather_details(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]], *,
+                   registry: Registry) -> pd.DataFrame:
+    """The shown details (e.g. H(R), H(O)) of every registered metric, per task, from the point files.
+
+    Parameters
+    ----------
+    tables : as for :func:`gather`
+    registry : Registry
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``task``, ``quantity`` (the detail's name), ``metric`` (the metric it belongs to), ``value``.
+    """
+    rows = []
+    for stage, (point_file, _) in RETURN_MATRIX_STAGES.items():
+        for task, files in tables.get(stage, {}).items():
+            point = files[point_file]
+            for metric in registry.of_stage(stage):
+                for detail in metric.details:
+                    if detail.shown and detail.name in point.columns:
+                        rows.append({"task": task, "quantity": detail.name, "metric": metric.name,
+                                     "value": float(point[detail.name].iloc[0])})
+    return pd.DataFrame(rows, columns=["task", "quantity", "metric", "value"])

@@ -2,9 +2,9 @@
 
 ``metrics.md`` (§ The verdict) asks, for every metric and known relation, whether the metric orders
 the two tasks as known and whether the difference is significant; per metric, the counts of
-outcomes, Kendall's τ against each known total order and, when the study gives reference scores,
-their Pearson and Spearman correlation with the metric. The relations, orders and reference scores
-are study data (:class:`taskcomplexity.study.Study`); directions come from the metric registry.
+outcomes and Kendall's τ against each known total order (correlations with reference scores:
+:mod:`taskcomplexity.verdict.references`). The relations and orders are study data
+(:class:`taskcomplexity.study.Study`); directions come from the metric registry.
 
 Outcomes of one (metric, relation):
 
@@ -133,9 +133,8 @@ def summarise(
     *,
     registry: Registry,
     orders: Mapping[str, Iterable[str]] | None = None,
-    reference: Mapping[str, float] | None = None,
 ) -> pd.DataFrame:
-    """Per metric: outcome counts, Kendall's τ per known order, correlation with the reference scores.
+    """Per metric: outcome counts and Kendall's τ per known order.
 
     Parameters
     ----------
@@ -147,18 +146,13 @@ def summarise(
         Directions and order of the metrics.
     orders : mapping of str to sequence of task ids, optional
         Named known total orders, easiest first (a study's ``orders``).
-    reference : mapping of task id to float, optional
-        Reference scores, higher = easier (a study's ``reference``).
 
     Returns
     -------
     pandas.DataFrame, one row per metric of ``values`` (registry order)
         ``metric``, the counts of :data:`SUMMARY_COUNTS`; for each order ``kendall_tau_<name>``:
         Kendall's τ-b between the known order and the order the metric implies, over the tasks
-        with a finite value (NaN with fewer than 2; +1 = exactly as known, −1 = reversed); with
-        reference scores ``pearson_r``, ``pearson_p``, ``spearman_r``, ``spearman_p`` between the
-        scores and the metric's easiness (its value, negated when lower is easier), over the tasks
-        with both (NaN with fewer than 3 or a constant side).
+        with a finite value (NaN with fewer than 2; +1 = exactly as known, −1 = reversed).
     """
     values = _tidy(values, "values")
     finite = values[np.isfinite(values["value"].to_numpy(dtype=np.float64))]
@@ -179,13 +173,6 @@ def summarise(
                 implied = np.array([points[(metric, task)] for task in tasks], dtype=np.float64)
                 tau = float(scipy.stats.kendalltau(np.arange(len(tasks)), -sign * implied).statistic)
             row[f"kendall_tau_{name}"] = tau
-        if reference:
-            tasks = [task for task in reference if (metric, task) in points.index]
-            x = np.array([reference[t] for t in tasks], dtype=np.float64)
-            y = sign * np.array([points[(metric, t)] for t in tasks], dtype=np.float64)
-            for name, test in (("pearson", scipy.stats.pearsonr), ("spearman", scipy.stats.spearmanr)):
-                r, p = _correlation(test, x, y)
-                row[f"{name}_r"], row[f"{name}_p"] = r, p
         rows.append(row)
     columns = ["metric", *SUMMARY_COUNTS]
     return pd.DataFrame(rows, columns=list(dict.fromkeys(columns + [k for r in rows for k in r])))
@@ -252,12 +239,6 @@ def pairwise_welch(samples: pd.DataFrame, *, registry: Registry, alpha: float = 
     columns = ["metric", "task_a", "task_b", "statistic", "pvalue", "significant"]
     return pd.concat(parts, ignore_index=True)[columns] if parts else pd.DataFrame(columns=columns)
 
-
-def _correlation(test, x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-    if x.size < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return float("nan"), float("nan")
-    result = test(x, y)
-    return float(result.statistic), float(result.pvalue)
 
 
 def _tidy(table: pd.DataFrame, name: str) -> pd.DataFrame:
