@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper test test-all lint bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper classic classic-sweep test test-all lint bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -30,6 +30,16 @@ quick: $(STAMP) ## a small trial of the whole chain (minutes; not the published 
 
 paper: $(STAMP) ## the published protocol with SAC (hours; resumes where it stopped)
 	$(PY) pipelines/study.py experiment=published sac.enabled=true
+
+classic: $(STAMP) ## the original PIC/POIC protocol on classic control (study=classic_control: N = M = 1000, five tasks)
+	$(PY) pipelines/study.py study=classic_control $(ARGS)
+
+# The 28 cells of Furuta et al.'s sweep: 7 architectures × 4 priors (each cell is one study=classic_control job).
+CLASSIC_NETWORKS := pic_linear,pic_h1_4,pic_h1_32,pic_h1_64,pic_h2_4,pic_h2_32,pic_h2_64
+CLASSIC_PRIORS := normal,uniform,xavier_normal_tanh,xavier_uniform_tanh
+
+classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_control as a multirun + its sweep report (ARGS=… adds overrides, e.g. a launcher)
+	$(PY) pipelines/study.py -m study=classic_control network=$(CLASSIC_NETWORKS) prior=$(CLASSIC_PRIORS) $(ARGS)
 
 test: $(STAMP) ## run the test suite (what CI runs)
 	$(PY) -m pytest -q -m "not slow"
