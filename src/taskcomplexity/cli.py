@@ -104,8 +104,9 @@ def check_output_paths(argv: list[str]) -> None:
             fail(str(err))
 
 
-FREE_FORM = ("task.kwargs",)
-"""Config nodes whose keys are the user's own (``+task.kwargs.noise=0.3``)."""
+FREE_FORM = ("task.kwargs", "study.reference", "study.algorithm_scores", "study.orders")
+"""Config nodes whose keys are the user's own (``+task.kwargs.noise=0.3``, ``+study.reference.pend=1``): the
+study checks its own (every id must be a task of the study)."""
 
 
 def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
@@ -226,6 +227,15 @@ def rwg_request_from_config(cfg: Any, task=None):
     network, prior = sampler_from_config(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
     return RWGRequest(task, network, prior, settings, resolve_backend(task, str(cfg.backend)))
+
+
+def refuse_unread_groups(typed: list[str], unread: tuple[str, ...], command: str, instead: str) -> None:
+    """Refuse, in one line, a typed override of a config node ``command`` does not read (e.g. ``study.…``
+    for the RWG stage of one task), naming the command that reads it."""
+    for override in typed:
+        key = override.partition("=")[0].lstrip("+~")
+        if any(key == node or key.startswith(f"{node}.") for node in unread):
+            raise ConfigError(f"{override} is not read by {command} ({instead} reads it)")
 
 
 REACHING_ONLY = ("arm", "reward", "max_steps", "rwg.contacts")

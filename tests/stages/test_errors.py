@@ -55,8 +55,13 @@ def test_unknown_keys_and_additions_no_stage_reads_are_one_line_exit_2(tmp_path)
     cases = {
         "rwg.polices=10": "error: rwg.polices is not a known key (allowed: chunk_memory_mb, chunk_policies, common_initial_states, "
                           "contacts, episodes, policies, seed, shard, shards)",
-        "+foo=1": "error: +foo=1: foo is not a key any stage reads ('+' adds keys only to task.kwargs; remove it or "
-                  "check its spelling)",
+        "+foo=1": "error: +foo=1: foo is not a key any stage reads ('+' adds keys only to task.kwargs, "
+                  "study.reference, study.algorithm_scores, study.orders; remove it or check its spelling)",
+        # a free-form study node accepts new keys, but the RWG stage of one task reads no study
+        "+study.algorithm_scores.Hopper-v4={max:1,average:0}": "error: +study.algorithm_scores.Hopper-v4="
+            "{max:1,average:0} is not read by the RWG stage of one task (pipelines/study.py reads it)",
+        "metrics.bins=10": "error: metrics.bins=10 is not read by the RWG stage of one task (pipelines/study.py "
+                           "reads it)",
         "arm.links.0.mas=3": "error: arm.links[0].mas is not a known key (allowed: com, joint_damping, length, mass)",
     }
     for override, message in cases.items():

@@ -10,7 +10,13 @@ import logging
 
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import cache_from_config, one_line_errors, rwg_request_from_config
+from taskcomplexity.cli import (
+    cache_from_config,
+    one_line_errors,
+    refuse_unread_groups,
+    rwg_request_from_config,
+    user_overrides,
+)
 from taskcomplexity.commands import entry_point
 from taskcomplexity.stages.rwg_stage import run_rwg_stage
 
@@ -20,6 +26,8 @@ log = logging.getLogger("rwg")
 @one_line_errors
 def run(cfg: DictConfig):
     """Compute or reuse the returns artefact of the composed task and sampler."""
+    refuse_unread_groups(user_overrides(), ("study", "metrics", "diagnostics", "sac", "report"),
+                         "the RWG stage of one task", "pipelines/study.py")
     request = rwg_request_from_config(cfg)
     cache = cache_from_config(cfg)
     artefact, hit = run_rwg_stage(
