@@ -115,9 +115,11 @@ class GymTask:
     def make_env(self, **kwargs: Any) -> gymnasium.Env:
         """``gymnasium.make`` with the task's arguments and episode limit (no env checker)."""
         arguments = {**self.kwargs, **kwargs}
+        env_id = self.env_id if ":" not in self.env_id else self.spec.id
         try:
-            return gymnasium.make(self.env_id if ":" not in self.env_id else self.spec.id,
-                                  max_episode_steps=self.max_steps, disable_env_checker=True, **arguments)
+            return gymnasium.make(env_id, max_episode_steps=self.max_steps, disable_env_checker=True, **arguments)
+        except ConfigError as err:  # an env of this package refusing an argument's value (it names the argument)
+            raise ConfigError(f"task.kwargs of {self.env_id}: {err}") from err
         except gymnasium.error.DependencyNotInstalled as err:
             raise ConfigError(_dependency_message(self.env_id, err)) from err
         except TypeError as err:

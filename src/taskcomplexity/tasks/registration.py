@@ -1,4 +1,8 @@
-"""Gymnasium ids of the seven tasks, registered lazily (PyBullet is imported only by ``make``)."""
+"""Gymnasium ids of this package, registered lazily (PyBullet is imported only by ``make``).
+
+The seven reaching tasks (``taskcomplexity/<Arm>-<Reward>-v0``) and the noisy CartPole of
+``study=cartpole_noise`` (``taskcomplexity/NoisyCartPole-v0``).
+"""
 
 from __future__ import annotations
 
@@ -10,9 +14,12 @@ MAX_EPISODE_STEPS = 50
 
 GYM_IDS: dict[tuple[str, str], str] = {(arm, reward): gym_id(arm, reward) for arm, reward in STUDY_TASKS}
 
+NOISY_CARTPOLE_ID = "taskcomplexity/NoisyCartPole-v0"
+"""CartPole-v0 with reset and dynamics noise (``tasks/classic/noisy_cartpole.py``)."""
+
 
 def register_tasks() -> None:
-    """Register every study task with gymnasium (idempotent)."""
+    """Register every task of the package with gymnasium (idempotent)."""
     for (arm, reward), env_id in GYM_IDS.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(
@@ -21,3 +28,10 @@ def register_tasks() -> None:
                 max_episode_steps=MAX_EPISODE_STEPS,
                 kwargs={"arm": arm, "reward": reward},
             )
+    if NOISY_CARTPOLE_ID not in gymnasium.registry:
+        gymnasium.register(
+            id=NOISY_CARTPOLE_ID,
+            entry_point="taskcomplexity.tasks.classic.noisy_cartpole:NoisyCartPoleEnv",
+            max_episode_steps=200,  # CartPole-v0's limit and reward threshold
+            reward_threshold=195.0,
+        )
