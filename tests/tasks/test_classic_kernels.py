@@ -47,7 +47,7 @@ class KernelEnv:
         self.params = self.kernel.params(task.kwargs)
 
     def reset(self, seed: int) -> np.ndarray:
-        self.state = self.kernel.initial_states(np.array([seed]))
+        self.state, self.generators = self.kernel.start(np.array([seed]), self.task.kwargs)
         self.obs = np.zeros((1, self.task.observation_size))
         observe_all(self.kernel.code, self.state, self.obs)
         self.running = np.ones(1, dtype=bool)
@@ -57,8 +57,8 @@ class KernelEnv:
 
     def step(self, outputs: np.ndarray):
         """(observation, return so far, terminated, truncated) after one step."""
-        step_all(self.kernel.code, self.params, self.state, outputs[None].astype(np.float64), self.obs, self.running,
-                 self.returns, self.steps, self.task.max_steps)
+        step_all(self.kernel.code, self.params, self.state, self.generators, outputs[None].astype(np.float64),
+                 self.obs, self.running, self.returns, self.steps, self.task.max_steps)
         done = not self.running[0]
         truncated = done and self.steps[0] >= self.task.max_steps
         terminated = done and not truncated

@@ -4,7 +4,9 @@ All M episodes of all P policies of a chunk run at once: one batched policy forw
 (:meth:`PolicyBatch.act`, the same NumPy code the ``gym`` backend runs) and one parallel numba step
 (:func:`taskcomplexity.tasks.classic.kernels.step_all`) per environment step. Episode e of policy n
 starts from the state ``env.reset(seed=episode_reset_seeds(seed, n, e))`` would draw, so the returns
-equal the ``gym`` backend's (``tests/tasks/test_classic_kernels.py`` states the tolerance).
+equal the ``gym`` backend's (``tests/tasks/test_classic_kernels.py`` states the tolerance). An env whose
+step draws random numbers (the noisy CartPole) carries each episode's generator along with its state
+(four uint64 words per slot), continued from the reset's draws as the env continues its ``np_random``.
 
 Random policies end their episodes at very different times: once fewer than COMPACT_BELOW of the
 slots run, the running episodes of each policy are packed to the front and the forward pass shrinks to
@@ -69,7 +71,9 @@ def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_ini
     n_pol = len(policies)
     box = isinstance(task.action_space, spaces.Box)
     seeds = reset_seeds(seed, policies.indices, episodes, common_initial_states)
-    state = kernel.initial_states(seeds).reshape(n_pol * episodes, kernel.state_size)
+    state, generators = kernel.start(seeds, task.kwargs)
+    state = state.reshape(n_pol * episodes, kernel.state_size)
+    generators = generators.reshape(n_pol * episodes, generators.shape[-1])
     obs = np.empty((n_pol * episodes, task.observation_size))
     observe_all(kernel.code, state, obs)
     running = np.ones(n_pol * episodes, dtype=bool)
@@ -87,14 +91,15 @@ def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_ini
             outputs = active.act(torch.from_numpy(obs.reshape(len(active), width, -1))).numpy()
             outputs = active.unit_outputs(outputs, box).reshape(len(active) * width, -1)
             step = step_all if running.size >= PARALLEL_FROM else step_serial
-            alive = step(kernel.code, params, state, outputs, obs, running, returns, steps, task.max_steps)
+            alive = step(kernel.code, params, state, generators, outputs, obs, running, returns, steps,
+                         task.max_steps)
             if alive == 0:
                 break
             if alive < COMPACT_BELOW * running.size:
                 all_returns[index], all_steps[index] = returns, steps
                 rows, slots = _compaction(running.reshape(len(active), width))
-                state, obs, running, returns, steps, index = (
-                    a[slots.ravel()] for a in (state, obs, running, returns, steps, index)
+                state, generators, obs, running, returns, steps, index = (
+                    a[slots.ravel()] for a in (state, generators, obs, running, returns, steps, index)
                 )
                 active, width = select_policies(active, rows), slots.shape[1]
     all_returns[index], all_steps[index] = returns, steps

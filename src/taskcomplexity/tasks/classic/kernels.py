@@ -1,9 +1,11 @@
 """Batched numba steps of gymnasium 1.2.3's classic-control environments.
 
 One module on purpose: numba keys a cached kernel on its own source file, so the dynamics and the
-driver that inlines them live together and a change to either recompiles both.
+driver that inlines them live together and a change to either recompiles both. The one outside piece is
+:func:`~taskcomplexity.tasks.classic.resets.next_double` (NumPy's fixed PCG64 arithmetic, shared with
+the resets rather than copied): after changing it, touch this file so that numba recompiles.
 
-Each ``_<env>_step(state, outputs, params)`` does what the env's ``step`` does to one environment,
+Each ``_<env>_step(state, outputs, params[, generator])`` does what the env's ``step`` does to one env,
 operation for operation in the same floating-point types (gymnasium mixes float32 and float64: the
 comments say where), and returns ``(reward, terminated)``; ``_<env>_observe(state, obs)`` writes the
 float32 observation gymnasium returns, widened to float64 (what the policy reads). Policy outputs are
@@ -12,7 +14,10 @@ Discrete (the first maximum, like ``np.argmax``), the affine map of (−1, 1) on
 the space's float32, for Box.
 
 :func:`step_all` advances every running environment by one step, in parallel over environments,
-with the episode bookkeeping (return, length, time limit) of the generic gym backend.
+with the episode bookkeeping (return, length, time limit) of the generic gym backend. An env whose step
+draws from its ``np_random`` (the noisy CartPole) draws here from the episode's own PCG64 generator,
+kept as four uint64 words per environment (:mod:`taskcomplexity.tasks.classic.resets`, continued after
+the reset's draws), so it draws the numbers the env draws.
 """
 
 from __future__ import annotations
@@ -23,7 +28,9 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-CARTPOLE, PENDULUM, MOUNTAIN_CAR, MOUNTAIN_CAR_CONTINUOUS, ACROBOT = range(5)
+from taskcomplexity.tasks.classic.resets import next_double
+
+CARTPOLE, PENDULUM, MOUNTAIN_CAR, MOUNTAIN_CAR_CONTINUOUS, ACROBOT, NOISY_CARTPOLE = range(6)
 
 
 class ClassicParams(NamedTuple):
@@ -35,6 +42,10 @@ class ClassicParams(NamedTuple):
     """Pendulum: 3g/(2l), 1/s² (l = 1 m)."""
     goal_velocity: float = 0.0
     """MountainCar(Continuous): the velocity the car must reach at the goal."""
+    reset_noise: float = 0.0
+    """Noisy CartPole: half-width of the initial state's uniform draw (read by the reset, not the step)."""
+    dynamics_noise: float = 0.0
+    """Noisy CartPole: half-width u of the uniform kick U(−u, u) to θ̇ after each step, rad/s (0: no draw)."""
 
 PI = np.pi
 
@@ -56,7 +67,8 @@ def _box_action(output, low, high):
 
 # -- CartPole-v0/v1 (cartpole.py): state float64 [x, x_dot, theta, theta_dot]; params.sutton_barto_reward
 @numba.njit(cache=True, inline="always")
-def _cartpole_step(s, outputs, params):
+def _cartpole_move(s, outputs):
+    """CartPole's forces and one Euler step, in place; the new (x, θ)."""
     gravity = 9.8
     masscart = 1.0
     masspole = 0.1
@@ -64,7 +76,6 @@ def _cartpole_step(s, outputs, params):
     length = 0.5
     polemass_length = masspole * length
     tau = 0.02
-    theta_threshold = 12 * 2 * math.pi / 360
     force = 10.0 if _argmax(outputs) == 1 else -10.0
     x, x_dot, theta, theta_dot = s[0], s[1], s[2], s[3]
     costheta = math.cos(theta)
@@ -79,10 +90,34 @@ def _cartpole_step(s, outputs, params):
     theta = theta + tau * theta_dot
     theta_dot = theta_dot + tau * thetaacc
     s[0], s[1], s[2], s[3] = x, x_dot, theta, theta_dot
+    return x, theta
+
+
+@numba.njit(cache=True, inline="always")
+def _cartpole_outcome(x, theta, params):
+    """(reward, terminated) of a step that reached cart position x and pole angle theta."""
+    theta_threshold = 12 * 2 * math.pi / 360
     terminated = x < -2.4 or x > 2.4 or theta < -theta_threshold or theta > theta_threshold
     if params.sutton_barto_reward != 0.0:
         return (-1.0 if terminated else 0.0), terminated
     return 1.0, terminated
+
+
+@numba.njit(cache=True, inline="always")
+def _cartpole_step(s, outputs, params):
+    x, theta = _cartpole_move(s, outputs)
+    return _cartpole_outcome(x, theta, params)
+
+
+# -- taskcomplexity/NoisyCartPole-v0 (noisy_cartpole.py): CartPole's step, then θ̇ += U(−u, u) drawn from
+#    the episode's generator (u = params.dynamics_noise; no draw when u = 0), then the termination check
+@numba.njit(cache=True, inline="always")
+def _noisy_cartpole_step(s, outputs, params, generator):
+    x, theta = _cartpole_move(s, outputs)
+    if params.dynamics_noise > 0.0:
+        low, high = -params.dynamics_noise, params.dynamics_noise
+        s[3] = s[3] + (low + (high - low) * next_double(generator))  # Generator.uniform(low, high)
+    return _cartpole_outcome(x, theta, params)  # x and θ as the Euler step left them: the kick moves θ̇ only
 
 
 @numba.njit(cache=True, inline="always")
@@ -238,7 +273,7 @@ def _acrobot_observe(s, obs):
 
 @numba.njit(cache=True, inline="always")
 def _observe(code, s, obs):
-    if code == CARTPOLE:
+    if code == CARTPOLE or code == NOISY_CARTPOLE:
         _cartpole_observe(s, obs)
     elif code == PENDULUM:
         _pendulum_observe(s, obs)
@@ -277,11 +312,8 @@ def observe_all(code, state, obs):
 
 
 @numba.njit(cache=True, inline="always")
-def _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i):
-    """One step of environment i if it runs; whether it still runs afterwards."""
-    if not running[i]:
-        return 0
-    reward, terminated = _step(code, state[i], outputs[i], params)
+def _count(code, state, obs, running, returns, steps, max_steps, i, reward, terminated):
+    """Book environment i's step (return, length, end); whether it still runs afterwards."""
     returns[i] += reward
     steps[i] += 1
     if terminated or steps[i] >= max_steps:
@@ -291,8 +323,26 @@ def _advance(code, params, state, outputs, obs, running, returns, steps, max_ste
     return 1
 
 
+@numba.njit(cache=True, inline="always")
+def _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i):
+    """One step of environment i if it runs; whether it still runs afterwards."""
+    if not running[i]:
+        return 0
+    reward, terminated = _step(code, state[i], outputs[i], params)
+    return _count(code, state, obs, running, returns, steps, max_steps, i, reward, terminated)
+
+
+@numba.njit(cache=True, inline="always")
+def _advance_drawing(code, params, state, generators, outputs, obs, running, returns, steps, max_steps, i):
+    """:func:`_advance` for the env whose step draws (NOISY_CARTPOLE), from environment i's generator."""
+    if not running[i]:
+        return 0
+    reward, terminated = _noisy_cartpole_step(state[i], outputs[i], params, generators[i])
+    return _count(code, state, obs, running, returns, steps, max_steps, i, reward, terminated)
+
+
 @numba.njit(cache=True, parallel=True)
-def step_all(code, params, state, outputs, obs, running, returns, steps, max_steps):
+def step_all(code, params, state, generators, outputs, obs, running, returns, steps, max_steps):
     """One step of every running environment, in parallel over environments.
 
     Parameters
@@ -301,6 +351,9 @@ def step_all(code, params, state, outputs, obs, running, returns, steps, max_ste
     params : ClassicParams
         The env's constructor arguments.
     state : ndarray (K, S) float64, updated
+    generators : ndarray (K, 4) uint64, updated
+        Each environment's PCG64 generator (:func:`~taskcomplexity.tasks.classic.resets.seed_generators`)
+        for an env whose step draws; (K, 0) for the others (never read).
     outputs : ndarray (K, A) float64
         The policies' outputs (in (−1, 1) for Box actions).
     obs : ndarray (K, O) float64, updated where the episode goes on
@@ -312,16 +365,27 @@ def step_all(code, params, state, outputs, obs, running, returns, steps, max_ste
     -------
     int: environments still running.
     """
+    # Two loops, chosen once: a draw's branch inside the loop every env runs costs the others ~10 %.
     alive = 0
-    for i in numba.prange(state.shape[0]):
-        alive += _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i)
+    if code == NOISY_CARTPOLE:
+        for i in numba.prange(state.shape[0]):
+            alive += _advance_drawing(code, params, state, generators, outputs, obs, running, returns, steps,
+                                      max_steps, i)
+    else:
+        for i in numba.prange(state.shape[0]):
+            alive += _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i)
     return alive
 
 
 @numba.njit(cache=True)
-def step_serial(code, params, state, outputs, obs, running, returns, steps, max_steps):
+def step_serial(code, params, state, generators, outputs, obs, running, returns, steps, max_steps):
     """:func:`step_all` on one thread (for small batches, where starting the threads costs more)."""
     alive = 0
-    for i in range(state.shape[0]):
-        alive += _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i)
+    if code == NOISY_CARTPOLE:
+        for i in range(state.shape[0]):
+            alive += _advance_drawing(code, params, state, generators, outputs, obs, running, returns, steps,
+                                      max_steps, i)
+    else:
+        for i in range(state.shape[0]):
+            alive += _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i)
     return alive
