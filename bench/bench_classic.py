@@ -93,9 +93,12 @@ def policy_rate(task, network, policies, episodes, repeats) -> float:
 
 
 def envpool_maker(env_id):
+    """envpool's vector env of ``env_id`` (None: envpool is not installed or has no such env)."""
     try:
         import envpool
     except ImportError:
+        return None
+    if env_id not in envpool.list_all_envs():
         return None
     return lambda n: envpool.make(env_id, env_type="gymnasium", num_envs=n, seed=0)
 
@@ -131,8 +134,9 @@ def main() -> None:
             gym = rwg_rate(task, network, "gym", args.gym_policies, args.gym_policies, args.repeats)
             vec = vector_rate(task, network, lambda n, e=env_id: gymnasium.make_vec(e, num_envs=n),
                               args.num_envs, args.vector_steps, args.repeats)
-            pool = vector_rate(task, network, envpool_maker(env_id), args.num_envs, args.vector_steps,
-                               args.repeats) if has_envpool else float("nan")
+            pooled = envpool_maker(env_id)  # envpool has gymnasium's ids only (not taskcomplexity/NoisyCartPole)
+            pool = vector_rate(task, network, pooled, args.num_envs, args.vector_steps,
+                               args.repeats) if pooled is not None else float("nan")
             print(f"{env_id:<26}{name:<11}{kernel:>11,.0f}{bound:>11,.0f}{gym:>10,.0f}{kernel / gym:>7.1f}"
                   f"{vec:>10,.0f}{kernel / vec:>7.1f}{pool:>10,.0f}{kernel / pool:>7.1f}", flush=True)
 
