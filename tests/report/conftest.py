@@ -37,3 +37,17 @@ def run_stages():
         return {"cache": cache, "results": results, "diagnostics": found, "verdict": verdict}
 
     return run
+
+
+@pytest.fixture(scope="session")
+def scored_study():
+    """Three gymnasium tasks with a learning algorithm's scores (A_max, A_avg): Score(A), Score(R) and correlations."""
+    from taskcomplexity.study import study_from_config
+
+    return study_from_config({
+        "name": "scored",
+        "tasks": [{"id": "cart", "env_id": "CartPole-v1"}, {"id": "pend", "env_id": "Pendulum-v1"},
+                  {"id": "car", "env_id": "MountainCarContinuous-v0"}],
+        "algorithm_scores": {"cart": {"max": 500.0, "average": 480.0}, "pend": {"max": -130.0, "average": -570.0},
+                             "car": {"max": 95.9, "average": 12.9}},
+    })

@@ -88,21 +88,12 @@ def test_a_study_without_relations_shows_its_metrics_and_says_there_is_nothing_t
     assert table1["Task"].tolist() == ["Pendulum"]
 
 
-SCORED = study_from_config({
-    "name": "scored",
-    "tasks": [{"id": "cart", "env_id": "CartPole-v1"}, {"id": "pend", "env_id": "Pendulum-v1"},
-              {"id": "car", "env_id": "MountainCarContinuous-v0"}],
-    "algorithm_scores": {"cart": {"max": 500.0, "average": 480.0}, "pend": {"max": -130.0, "average": -570.0},
-                         "car": {"max": 95.9, "average": 12.9}},
-})
-
-
-def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp_path, run_stages):
-    found = run_stages(tmp_path, SCORED, requests("CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0"),
+def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp_path, run_stages, scored_study):
+    found = run_stages(tmp_path, scored_study, requests("CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0"),
                        diagnostics=False)
     metrics = {r.task_id: pd.read_parquet(r.metrics.file("metrics.parquet")).iloc[0] for r in found["results"]}
     references = pd.read_parquet(found["verdict"].file("references.parquet")).set_index(["task", "reference"])
-    for task, score in SCORED.algorithm_scores.items():  # the definitions, from the metrics artefact's bounds
+    for task, score in scored_study.algorithm_scores.items():  # the definitions, from the metrics artefact's bounds
         m = metrics[task]
         span = max(m["r_max"], score.max) - m["r_min"]
         assert references.loc[(task, "score_a"), "value"] == pytest.approx((score.average - m["r_min"]) / span)
@@ -117,7 +108,7 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
     x = [references.loc[(t, "score_a"), "value"] for t in ("cart", "pend", "car")]
     assert pic["pearson_r"] == pytest.approx(float(np.corrcoef(x, values)[0, 1]))
 
-    index = build_report(found["results"], study=SCORED, verdict=found["verdict"], diagnostics=None,
+    index = build_report(found["results"], study=scored_study, verdict=found["verdict"], diagnostics=None,
                          sac_curves=None, out_dir=tmp_path / "report", title="Scored")
     tables = index.parent / "tables"
     table = pd.read_csv(tables / "reference_scores.csv")

@@ -16,17 +16,9 @@ from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.report.sweep import JOB_FILE, cell_names, sweep_jobs, write_sweep_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 
 ROOT = Path(__file__).resolve().parents[2]
-SCORED = study_from_config({
-    "name": "scored",
-    "tasks": [{"id": "cart", "env_id": "CartPole-v1"}, {"id": "pend", "env_id": "Pendulum-v1"},
-              {"id": "car", "env_id": "MountainCarContinuous-v0"}],
-    "algorithm_scores": {"cart": {"max": 500.0, "average": 480.0}, "pend": {"max": -130.0, "average": -570.0},
-                         "car": {"max": 95.9, "average": 12.9}},
-})
 CELLS = {"network=pic_linear prior=normal": (NetworkSpec(hidden=(), activation="tanh", output="linear"),
                                               PriorSpec()),
          "network=pic_h1_4 prior=uniform": (NetworkSpec(hidden=(4,), activation="tanh", output="linear"),
@@ -39,12 +31,12 @@ def test_cells_are_named_by_the_overrides_that_differ():
     assert cell_names(jobs[:1]) == ["study=s network=a prior=x"]  # one job: every override names it
 
 
-def test_the_sweep_report_tabulates_each_cell_and_the_mean_over_cells(tmp_path, run_stages):
+def test_the_sweep_report_tabulates_each_cell_and_the_mean_over_cells(tmp_path, run_stages, scored_study):
     sweep = tmp_path / "sweep"
     for num, (cell, (network, prior)) in enumerate(CELLS.items()):
         requests = [RWGRequest(GymTask(e), network, prior, RWGSettings(policies=10, episodes=4), backend="kernel")
                     for e in ("CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0")]
-        found = run_stages(tmp_path / "cache", SCORED, requests, diagnostics=False)
+        found = run_stages(tmp_path / "cache", scored_study, requests, diagnostics=False)
         (sweep / str(num)).mkdir(parents=True)
         record = {"study": "scored", "overrides": ["study=scored", *cell.split()],
                   "verdict": str(found["verdict"].path), "report": f"cell {num}"}
