@@ -116,3 +116,4 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
     text = index.read_text(encoding="utf-8")
     assert "Against Score(A) across 3 tasks, PIC r = " in text
     assert pd.read_csv(tables / "reference_correlations.csv")["Quantity"].iloc[0] == "PIC"
+    assert (index.parent / "figures" / "reference_scatter.png").stat().st_size > 1000

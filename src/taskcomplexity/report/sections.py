@@ -77,7 +77,24 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
             "Pearson r (two-sided p) and Spearman ρ across tasks between each reference score and each metric's "
             "easiness (its value, negated when lower is easier) or each entropy as it is. With a handful of "
             "tasks only |r| near 1 is evidence."))
+        first = references["reference"].iloc[0]
+        scored = data.metrics.merge(references[references["reference"] == first][["task", "value"]]
+                                    .rename(columns={"value": first}), on="task")
+        blocks.append(writer.figure(
+            [(fig.score_scatter_figure(scored, data.styles, y=(first, reference_label(first)),
+                                       panels=metric_panels(data, exclude=())), "reference_scatter")],
+            f"{reference_label(first)} against every metric.",
+            f"Each point is a task; panel titles give Pearson's r and its p-value across the {len(scored)} tasks "
+            "on the metric's value as it is (the table above uses its easiness, which differs in sign only for a "
+            "metric where lower is easier)."))
     return tuple(blocks)
+
+
+def metric_panels(data: StudyData, *, exclude: tuple[str, ...]) -> list[tuple[str, str]]:
+    """(column, axis label) of every metrics-stage metric and shown detail the metrics table holds."""
+    panels = [(d.name, _axis(d.label, d.unit)) for m in data.registry.of_stage("metrics") if m.name not in exclude
+              for d in ((m,) + tuple(x for x in m.details if x.shown))]
+    return [(name, label) for name, label in panels if name in data.metrics.columns]
 
 
 def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
@@ -133,9 +150,7 @@ def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
         writer.data(tests, f"welch_{metric.name}_tidy")
     if SCORE in registry and len(data.tasks) >= 1:
         score = registry[SCORE]
-        panels = [(d.name, _axis(d.label, d.unit)) for m in registry.of_stage("metrics") if m.name != SCORE
-                  for d in ((m,) + tuple(x for x in m.details if x.shown))]
-        panels = [(name, label) for name, label in panels if name in data.metrics.columns]
+        panels = metric_panels(data, exclude=(SCORE,))
         blocks.append(writer.figure(
             [(fig.score_scatter_figure(data.metrics, data.styles, y=(SCORE, f"normalised score {score.label}"),
                                        panels=panels), "score_scatter")],
