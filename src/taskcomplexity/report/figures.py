@@ -23,6 +23,7 @@ from matplotlib.figure import Figure
 
 from taskcomplexity.metrics import policy_statistics
 from taskcomplexity.report.labels import TaskStyle
+from taskcomplexity.verdict.references import correlation
 
 RETURN_UNIT = "sum of rewards"
 RETURN_LABEL = f"return ({RETURN_UNIT})"
@@ -222,11 +223,7 @@ def rwg_trios_figure(
 def pearson(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """Pearson r and its two-sided p-value; NaN when fewer than 3 finite pairs or a constant side."""
     keep = np.isfinite(x) & np.isfinite(y)
-    x, y = x[keep], y[keep]
-    if x.size < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return float("nan"), float("nan")
-    result = scipy.stats.pearsonr(x, y)
-    return float(result.statistic), float(result.pvalue)
+    return correlation(scipy.stats.pearsonr, x[keep], y[keep])
 
 
 def score_scatter_figure(
