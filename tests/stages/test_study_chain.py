@@ -55,6 +55,8 @@ def test_a_report_off_the_published_scale_says_so_and_says_how_to_get_sac_curves
     assert ("These numbers are at N = 10, M = 4, B = 1,000, not at the scale of Table 1 of the paper (N = 10,000, "
             "M = 500, B = 100,000)") in report
     assert "sac.enabled=true`" in report and "SAC was not trained in this run" in report
+    assert ("W₂ to SAC's policy was not computed for this report: it needs a trained SAC actor for each task"
+            in report)  # the proposed metric says why it is missing
     assert 'class="banner"' in index.read_text()
 
 
@@ -72,7 +74,7 @@ def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(smok
     artefact = run_verdict(cfg)
     verdict = pd.read_parquet(artefact.file("verdict.parquet"))
     study = study_from(cfg)
-    judged = [m.name for m in DEFAULT_REGISTRY if m.stage != "sac"]  # SAC off
+    judged = [m.name for m in DEFAULT_REGISTRY if m.stage not in ("sac", "occupancy")]  # SAC off: no trained actor
     assert len(verdict) == len(judged) * len(study.relations) == 80
     assert set(zip(verdict["metric"], verdict["easier"], verdict["harder"], strict=True)) == {
         (m, r.easier, r.harder) for m in judged for r in study.relations}

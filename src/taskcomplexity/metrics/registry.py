@@ -21,7 +21,9 @@ Functions by stage:
 - ``metrics`` and ``diagnostics``: ``compute(sample) -> float`` on a
   :class:`~taskcomplexity.metrics.sample.Sample` (the whole return matrix, or one policy batch);
 - ``sac``: ``compute(per_seed) -> array`` of one value per seed, from one task's rows of
-  :func:`~taskcomplexity.metrics.sac.seed_summary`.
+  :func:`~taskcomplexity.metrics.sac.seed_summary`;
+- ``occupancy``: ``compute(sample) -> float`` on an
+  :class:`~taskcomplexity.metrics.occupancy.OccupancySample` (K policies' distances, or a batch).
 """
 
 from __future__ import annotations
@@ -33,8 +35,12 @@ from typing import Any
 
 import numpy as np
 
-STAGES = ("metrics", "diagnostics", "sac")
-"""Stages that estimate metrics: the first two on return matrices, ``sac`` on learning curves."""
+BEYOND = "beyond the paper"
+"""The family of the metrics the paper's conclusion proposes (the report answers its open question with them)."""
+
+STAGES = ("metrics", "diagnostics", "sac", "occupancy")
+"""Stages that estimate metrics: the first two on return matrices, ``sac`` on learning curves,
+``occupancy`` on the occupancy distances of sampled policies to SAC's trained actor."""
 
 
 @dataclass(frozen=True)
@@ -256,6 +262,13 @@ DEFAULT_REGISTRY = Registry((
     Metric("pic_minus_null", "PIC − null", "PIC − null", "nats", True, "estimator", "diagnostics",
            compute=lambda s: float(s.pic.pic - s.null_pic.mean()), batched=True, quantity=_I,
            why=_OTHER_ESTIMATOR + " (net of its permutation null)"),
+    Metric("ot_distance", "W₂ to SAC's policy", "W₂ to SAC", "pooled sd", False, BEYOND, "occupancy",
+           compute=lambda s: s.mean, bootstrapped=True, batched=True,
+           details=(Detail("ot_distance_variance", "var. of W₂ over policies", "pooled sd²", lambda s: s.variance,
+                           shown=False),),
+           why="the paper's third proposal: random policies whose state–action occupancy lies far (optimal "
+               "transport, W₂) from the trained policy's rarely behave well, so good behaviour is rare under the "
+               "prior"),
     Metric("sac_final", "SAC final", "SAC final", "normalised return", True, "SAC", "sac",
            compute=_sac("sac", "final_normalised"), why=_SAC_WHY),
     Metric("sac_auc", "SAC AUC", "SAC AUC", "normalised return", True, "SAC", "sac",

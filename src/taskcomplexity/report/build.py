@@ -26,6 +26,7 @@ import pandas as pd
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report import sections
+from taskcomplexity.report.beyond import beyond_section
 from taskcomplexity.report.data import load_study_data
 from taskcomplexity.report.format import joined
 from taskcomplexity.report.headline import headline
@@ -112,6 +113,9 @@ def build_report(
         sections.sac_section(writer, data, sac_curves),
         sections.diagnostics_section(writer, data),
     ]
+    beyond = beyond_section(writer, data)
+    if beyond is not None:
+        page_sections.append(beyond)
     if ablation:
         page_sections.append(sections.ablation_section(writer, ablation))
     page_sections.append(sections.appendix_section(writer, data))

@@ -23,7 +23,7 @@ from taskcomplexity.rl.settings import (  # noqa: E402
     sac_skip_reason,
     with_budget,
 )
-from taskcomplexity.rl.train import CURVE_COLUMNS, train_sac, train_sac_seeds  # noqa: E402
+from taskcomplexity.rl.train import CURVE_COLUMNS, train_sac, train_sac_run, train_sac_seeds  # noqa: E402
 
 __all__ = [
     "CURVE_COLUMNS",
@@ -32,6 +32,7 @@ __all__ = [
     "protocol_variants",
     "sac_skip_reason",
     "train_sac",
+    "train_sac_run",
     "train_sac_seeds",
     "with_budget",
 ]

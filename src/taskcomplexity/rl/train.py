@@ -70,6 +70,7 @@ from taskcomplexity.rl.factories import (
     success_info_key,
 )
 from taskcomplexity.rl.settings import SACSettings, sac_skip_reason
+from taskcomplexity.rl.snapshots import ActorSnapshots, actor_layers
 from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.goal_env import goal_layout
@@ -157,6 +158,22 @@ def train_sac_seeds(
     With ``settings.train_seeds_together`` the seeds train in one vectorised run; otherwise one
     after the other, each as :func:`train_sac` (checkpoints in ``checkpoint_dir/seed-<s>``).
     """
+    return train_sac_run(task, settings, seeds=seeds, checkpoint_dir=checkpoint_dir, progress=progress,
+                         stop_after=stop_after, solved_return=solved_return)[0]
+
+
+def train_sac_run(
+    task: Task,
+    settings: SACSettings,
+    *,
+    seeds: Sequence[int] | None = None,
+    checkpoint_dir: Path | None = None,
+    progress: bool = False,
+    stop_after: int | None = None,
+    solved_return: float | None = None,
+) -> tuple[pd.DataFrame, ActorSnapshots]:
+    """As :func:`train_sac_seeds`, with the actors' snapshots: at step 0 and at every checkpoint boundary
+    (every ``checkpoint_every`` steps and the last step), for every seed."""
     seeds = tuple(int(s) for s in (settings.seeds if seeds is None else seeds))
     settings = dataclasses.replace(settings, seeds=seeds).validate()
     task = task.validate()
@@ -171,13 +188,15 @@ def train_sac_seeds(
                               "(allowed: the reaching arms without an obstacle)")
         goal_layout(task)  # raises ConfigError for an arm without a goal-conditioned view
     if settings.train_seeds_together or len(seeds) == 1:
-        return _Run(task, settings, checkpoint_dir, progress, solved_return).train(stop_after)
-    curves = []
+        run = _Run(task, settings, checkpoint_dir, progress, solved_return)
+        return run.train(stop_after), run.snapshots
+    curves, snapshots = [], []
     for seed in seeds:
         directory = None if checkpoint_dir is None else Path(checkpoint_dir) / f"seed-{seed}"
         run = _Run(task, dataclasses.replace(settings, seeds=(seed,)), directory, progress, solved_return)
         curves.append(run.train(stop_after))
-    return pd.concat(curves, ignore_index=True)
+        snapshots.append(run.snapshots)
+    return pd.concat(curves, ignore_index=True), ActorSnapshots.join_seeds(snapshots)
 
 
 @dataclass
@@ -188,6 +207,7 @@ class _Progress:
     rows: list[dict[str, Any]] = field(default_factory=list)
     latest_return: list[float] = field(default_factory=list)
     elapsed: float = 0.0
+    actors: list[dict[str, Any]] = field(default_factory=list)  # snapshots: {step, weights, biases}
 
 
 @dataclass
@@ -223,6 +243,7 @@ class _Run:
         self.goal_conditioned = settings.her
         self.solved_return = solved_return
         self.success_key = success_info_key(task)
+        self.snapshots: ActorSnapshots | None = None
 
     # -- the run -------------------------------------------------------------------------------
     def train(self, stop_after: int | None) -> pd.DataFrame:
@@ -253,6 +274,7 @@ class _Run:
                     her_strategy=s.her_strategy,
                 )
                 state, rng = self._resume(loss, optimisers, buffers)
+                self._snapshots(state)
                 if state.step >= self.total:
                     return self._curve(state)
                 collector = make_collector(
@@ -264,6 +286,7 @@ class _Run:
                 self._start_rng(rng)  # after every constructor, so a resumed run continues the same stream
                 parts = _Parts(env, eval_env, actor, loss, updater, optimisers, buffers, collector)
                 self._loop(parts, state, stop_after)
+                self._snapshots(state)
                 return self._curve(state)
             finally:
                 if collector is not None:
@@ -286,6 +309,7 @@ class _Run:
         try:
             if not state.rows:
                 self._evaluate(p, state, clock, bar)
+                self._snapshot(p, state)
             batches = iter(p.collector)
             while state.step < self.total:
                 segment = state.step // s.checkpoint_every
@@ -305,6 +329,8 @@ class _Run:
                         self._evaluate(p, state, clock, bar)
                     bar.update(s.collect_steps)
                 state.elapsed = time.perf_counter() - clock
+                if state.step == boundary:
+                    self._snapshot(p, state)
                 if self.checkpoint_dir is not None:
                     save_checkpoint(self.checkpoint_dir, self._checkpoint(p, state))
                 if stop_after is not None and state.step >= stop_after:
@@ -374,6 +400,16 @@ class _Run:
                 }
             )
         bar.set_postfix({"eval/return_mean": f"{returns.mean():.2f}"}, refresh=False)
+
+    def _snapshot(self, p: _Parts, state: _Progress) -> None:
+        """Keep the actors' parameters at this step (saved with the checkpoint, so a resumed run has them)."""
+        weights, biases = actor_layers(p.actor, self.task.action_size)
+        state.actors.append({"step": state.step, "weights": weights, "biases": biases})
+
+    def _snapshots(self, state: _Progress) -> None:
+        if state.actors:
+            self.snapshots = ActorSnapshots.stack([a["step"] for a in state.actors], self.seeds,
+                                                  [(a["weights"], a["biases"]) for a in state.actors])
 
     def _curve(self, state: _Progress) -> pd.DataFrame:
         curve = pd.DataFrame(state.rows, columns=list(CURVE_COLUMNS))

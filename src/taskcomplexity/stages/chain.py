@@ -17,6 +17,7 @@ from taskcomplexity.config import build
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact
 from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.stages.occupancy_stage import OccupancySettings, study_occupancy
 from taskcomplexity.stages.stage_log import StageLog, outcome
 from taskcomplexity.stages.task_artefacts import TaskMetrics, study_metrics
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
@@ -71,6 +72,8 @@ class StudyArtefacts:
         Each task's diagnostics artefact.
     sac_curves : pandas.DataFrame or None
         Tidy SAC curves (None: SAC off, or a study of variants).
+    occupancy : dict of task id to Artefact
+        Each task's occupancy-distance artefact (tasks with a trained SAC actor).
     verdict : Artefact
         The verdict stage's artefact.
     alpha : float
@@ -84,6 +87,7 @@ class StudyArtefacts:
     sac_curves: pd.DataFrame | None
     verdict: Artefact
     alpha: float
+    occupancy: dict[str, Artefact] | None = None
 
 
 def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyArtefacts:
@@ -97,14 +101,18 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
                                     build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"), registry=registry,
                                     force=force, progress=True)
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
+    actors = {} if sac is None else sac.attrs.get("sac_actors", {})
+    occupancy = study_occupancy(cache, {r.task_id: r.request for r in results}, actors,
+                                build(OccupancySettings, cfg.occupancy, "occupancy"), registry=registry, force=force,
+                                progress=True)
     stage = StageLog("verdict")
     with stage.task(study.name) as record:
         record.artefact, record.hit = run_verdict_stage(
             cache, study, {r.task_id: r.metrics for r in results}, diagnostics=diagnostics, sac_curves=sac,
-            alpha=settings.alpha, registry=registry, force=force)
+            occupancy=occupancy, alpha=settings.alpha, registry=registry, force=force)
     verdict = record.artefact
     log.info("%-12s %s: %s", "verdict", outcome(record.hit, record.seconds), verdict.file("verdict.parquet"))
-    return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha)
+    return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha, occupancy)
 
 
 def run_verdict(cfg: Any) -> Artefact:

@@ -33,6 +33,8 @@ CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
 SKIPPED_ATTR = "sac_skipped"
 """``curves.attrs[SKIPPED_ATTR]``: {study task id: reason} of the tasks SAC did not run on."""
+ACTORS_ATTR = "sac_actors"
+"""``curves.attrs[ACTORS_ATTR]``: {study task id: (SAC key, path of its ``actors.npz``)} of the plain SAC variant."""
 MISSING_ATTR = "sac_missing"
 """``curves.attrs[MISSING_ATTR]``: study task ids whose curves the cache does not hold yet (``cached_only``)."""
 
@@ -63,7 +65,8 @@ def run_sac_stage(
     ``settings.total_steps`` must be the run's budget (see :func:`taskcomplexity.rl.with_budget`).
     ``cached_only``: never train; (None, False) when the cache does not hold the curve.
     """
-    from taskcomplexity.rl import train_sac_seeds
+    from taskcomplexity.rl import train_sac_run
+    from taskcomplexity.rl.snapshots import ACTORS_FILE
 
     identity = sac_identity(task, settings, solved_return=solved_return)
     key = stage_key(STAGE, VERSION, identity)
@@ -74,10 +77,12 @@ def run_sac_stage(
 
     def write(directory) -> dict:
         scratch = cache.scratch(STAGE, key)
-        curves = train_sac_seeds(
+        curves, actors = train_sac_run(
             task, settings, checkpoint_dir=scratch, progress=progress, solved_return=solved_return
         )
         curves.to_parquet(directory / CURVES, index=False)
+        if actors is not None:
+            actors.save(directory / ACTORS_FILE)
         return {"label": f"{task.task_id} {variant} seeds={list(settings.seeds)}", "variant": variant}
 
     def cleanup() -> None:
@@ -174,7 +179,9 @@ def study_sac_curves(
         log.warning("SAC skipped for %s: %s", task_id, reason)
     if runs and not cached_only:
         log.info("%-26s %s", "sac", training_plan(cache, runs))
-    frames, missing = [], list(unbudgeted)
+    from taskcomplexity.rl.snapshots import ACTORS_FILE
+
+    frames, missing, actors = [], list(unbudgeted), {}
     for entry, task, budgeted in runs:
         found = []
         for variant in protocol_variants(task, budgeted):
@@ -185,6 +192,8 @@ def study_sac_curves(
                 break
             log.info("%-26s %s %s", entry.id, variant.variant, outcome(hit, time.perf_counter() - started))
             found.append(pd.read_parquet(artefact.file(CURVES)).assign(task=entry.id))
+            if variant.variant == "sac" and artefact.path.joinpath(ACTORS_FILE).exists():
+                actors[entry.id] = (artefact.key, str(artefact.path / ACTORS_FILE))
         else:  # every variant of the task (a task's curves are shown whole or not at all)
             frames.extend(found)
             continue
@@ -192,4 +201,5 @@ def study_sac_curves(
     curves = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(columns=list(CURVE_COLUMNS))
     curves.attrs[SKIPPED_ATTR] = skipped
     curves.attrs[MISSING_ATTR] = missing
+    curves.attrs[ACTORS_ATTR] = actors
     return curves

@@ -67,6 +67,7 @@ def verdict_key(
     *,
     alpha: float,
     registry: Registry,
+    occupancy: Mapping[str, str] | None = None,
 ) -> str:
     """Cache key of the verdict of ``study`` over the artefact keys given (task id → key)."""
     ids = list(metrics)
@@ -81,6 +82,8 @@ def verdict_key(
         "alpha": float(alpha),
         "registry": registry.signature(),
     }
+    if occupancy:
+        payload["occupancy"] = dict(occupancy)
     return stage_key(STAGE, VERSION, payload)
 
 
@@ -91,6 +94,7 @@ def run_verdict_stage(
     *,
     diagnostics: Mapping[str, Artefact] | None = None,
     sac_curves: pd.DataFrame | None = None,
+    occupancy: Mapping[str, Artefact] | None = None,
     alpha: float = SIGNIFICANCE_LEVEL,
     registry: Registry = DEFAULT_REGISTRY,
     force: bool = False,
@@ -109,6 +113,8 @@ def run_verdict_stage(
         Each task's diagnostics artefact (the other estimators); None leaves them out.
     sac_curves : pandas.DataFrame, optional
         Tidy SAC curves of the study (``task`` = study id); None or empty leaves SAC out.
+    occupancy : mapping of task id to Artefact, optional
+        Each task's occupancy-distance artefact (tasks with a trained SAC actor); None leaves it out.
     alpha : float, default 0.005
         Significance cut-off.
     registry : Registry
@@ -122,13 +128,14 @@ def run_verdict_stage(
         The artefact and whether the cache already held it.
     """
     diagnostics = {t: a for t, a in (diagnostics or {}).items() if t in metrics}
+    occupancy = {t: a for t, a in (occupancy or {}).items() if t in metrics}
     sac = curves_digest(sac_curves)
     key = verdict_key(study, {t: a.key for t, a in metrics.items()}, {t: a.key for t, a in diagnostics.items()},
-                      sac, alpha=alpha, registry=registry)
+                      sac, alpha=alpha, registry=registry, occupancy={t: a.key for t, a in occupancy.items()})
 
     def write(directory):
         tables = {}
-        for stage, artefacts in (("metrics", metrics), ("diagnostics", diagnostics)):
+        for stage, artefacts in (("metrics", metrics), ("diagnostics", diagnostics), ("occupancy", occupancy)):
             files = RETURN_MATRIX_STAGES[stage]
             tables[stage] = {t: {f: pd.read_parquet(a.file(f)) for f in files} for t, a in artefacts.items()}
         values, samples, per_seed = gather(tables, registry=registry, sac_curves=sac_curves)
@@ -152,5 +159,6 @@ def run_verdict_stage(
     config = {"study": study.name, "tasks": list(metrics), "alpha": float(alpha), "metrics": list(registry.names),
               "sac": sac}
     inputs = {**{f"metrics/{t}": a.key for t, a in metrics.items()},
-              **{f"diagnostics/{t}": a.key for t, a in diagnostics.items()}}
+              **{f"diagnostics/{t}": a.key for t, a in diagnostics.items()},
+              **{f"occupancy/{t}": a.key for t, a in occupancy.items()}}
     return cache.get_or_compute(STAGE, key, write, config=config, inputs=inputs, force=force)

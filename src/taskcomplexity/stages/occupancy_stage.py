@@ -1,0 +1,203 @@
+"""The occupancy stage: a task's random policies and its trained SAC actor → occupancy distances.
+
+For the first K random policies of the task's RWG sample (the same weights, from the same seed) and
+for the final SAC actor of every seed (the reference, "optimal" policy), the state–action pairs of E
+episodes each are recorded on the task's env (:mod:`taskcomplexity.rwg.occupancy`); each random
+policy's distance to the reference is the W₂ distance of :mod:`taskcomplexity.metrics.occupancy`.
+Every registry metric of stage ``occupancy`` is estimated on those K distances.
+
+Outputs under ``<cache>/occupancy/<key>/``:
+
+- ``occupancy.parquet``: one row: ``policies``, ``episodes``, ``pairs``, every metric and its details,
+  and ``<metric>_mean``, ``_sd``, ``_ci_low``, ``_ci_high`` of each bootstrapped metric;
+- ``distances.parquet``: ``policy`` (sampling index n), ``distance``;
+- ``bootstrap.parquet``: the bootstrap draws (policies resampled);
+- ``batches.parquet``: each batched metric on consecutive policy batches (the Welch tests' samples).
+
+The key hashes the RWG request's identity (task, network, prior, seed: the random policies), the SAC
+artefact's key (the reference actor), the settings and the registry's signature of the stage.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from contextlib import nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from taskcomplexity import metrics as est
+from taskcomplexity.config import result_identity, setting
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.metrics.bootstrap import bootstrap_indices
+from taskcomplexity.metrics.occupancy import OccupancySample, occupancy_distances
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.policies import sample_policies
+from taskcomplexity.progress import stage_bar
+from taskcomplexity.seeding import derive_seed
+from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.rwg_stage import RWGRequest
+from taskcomplexity.stages.stage_log import StageLog
+
+log = logging.getLogger(__name__)
+
+STAGE = "occupancy"
+VERSION = 1
+FILES = ("occupancy.parquet", "distances.parquet", "bootstrap.parquet", "batches.parquet")
+
+
+@dataclass(frozen=True)
+class OccupancySettings:
+    """How the occupancy distance is sampled (``conf/occupancy``).
+
+    Attributes
+    ----------
+    enabled : bool
+        Compute it for every task whose SAC artefact holds actor snapshots.
+    policies : int
+        K: random policies measured, the first K of the RWG sample (>= 2·batches).
+    episodes : int
+        E: episodes recorded per random policy and per SAC seed.
+    pairs : int
+        At most this many state–action pairs per policy (and per SAC seed), evenly thinned.
+    resamples : int
+        Bootstrap resamples of the K policies.
+    batches : int
+        Consecutive policy batches for the Welch tests (>= 2).
+    seed : int
+        Seed of the bootstrap.
+    """
+
+    enabled: bool = setting(True, result=False)
+    policies: int = 100
+    episodes: int = 5
+    pairs: int = 250
+    resamples: int = 1000
+    batches: int = 5
+    seed: int = 0
+
+    def validate(self) -> OccupancySettings:
+        for name, minimum in (("episodes", 1), ("pairs", 1), ("resamples", 1), ("batches", 2)):
+            value = getattr(self, name)
+            if value < minimum:
+                raise ConfigError(f"occupancy.{name} must be an integer >= {minimum}, got {value}")
+        if self.policies < 2 * self.batches:
+            raise ConfigError(f"occupancy.policies must be at least 2 × occupancy.batches = {2 * self.batches} "
+                              f"(2 policies per batch), got {self.policies}")
+        if self.seed < 0:
+            raise ConfigError(f"occupancy.seed must be a non-negative integer, got {self.seed}")
+        return self
+
+    def identity(self) -> dict:
+        return result_identity(self)
+
+
+def occupancy_key(request: RWGRequest, sac_key: str, settings: OccupancySettings, registry: Registry) -> str:
+    """Cache key: the random policies (task, network, prior, seed), the SAC actor, settings and metrics."""
+    sampler = {k: v for k, v in request.identity().items() if k in ("task", "network", "prior", "seed")}
+    return stage_key(STAGE, VERSION, {"policies": sampler, "sac": sac_key, **settings.identity(),
+                                      "metrics": registry.signature(STAGE)})
+
+
+def compute_distances(request: RWGRequest, actors_file: Path, settings: OccupancySettings,
+                      progress=None) -> tuple[np.ndarray, int]:
+    """(distances (K,), pairs of the reference) of the first K random policies of ``request``."""
+    from taskcomplexity.rl.snapshots import ActorSnapshots
+    from taskcomplexity.rwg.occupancy import record_occupancies
+
+    task = request.task
+    seed = int(request.settings.seed)
+    indices = np.arange(settings.policies)
+    policies = sample_policies(request.network, request.prior, task.observation_size, task.action_size, seed,
+                               indices)
+    random_pairs = record_occupancies(task, policies, seed=seed, episodes=settings.episodes, pairs=settings.pairs,
+                                      progress=progress)
+    actors = ActorSnapshots.load(actors_file).policies()  # the trained actor of every seed
+    reference = np.concatenate(record_occupancies(task, actors, seed=derive_seed(seed, "occupancy reference"),
+                                                  episodes=settings.episodes, pairs=settings.pairs))
+    return occupancy_distances(random_pairs, reference), len(reference)
+
+
+def compute_tables(distances: np.ndarray, settings: OccupancySettings, *, episodes: int, reference_pairs: int,
+                   registry: Registry = DEFAULT_REGISTRY) -> dict[str, pd.DataFrame]:
+    """Every table of the stage from the K distances (see the module docstring)."""
+    sample = OccupancySample(np.asarray(distances, dtype=np.float64))
+    metrics = registry.of_stage(STAGE)
+    row = {"policies": len(distances), "episodes": episodes, "reference_pairs": reference_pairs}
+    for metric in metrics:
+        row[metric.name] = float(metric.compute(sample))
+        row.update({d.name: float(d.compute(sample)) for d in metric.details})
+    draws = {"resample": np.arange(settings.resamples)}
+    indices = bootstrap_indices(len(distances), resamples=settings.resamples, seed=settings.seed)
+    for metric in (m for m in metrics if m.bootstrapped):
+        draws[metric.name] = np.array([float(metric.compute(sample.subsample(i))) for i in indices])
+    draws = pd.DataFrame(draws)
+    bootstrapped = {m.name: row[m.name] for m in metrics if m.bootstrapped}
+    if bootstrapped:
+        for _, s in est.summarise_bootstrap(draws, bootstrapped).iterrows():
+            for column in ("mean", "sd", "ci_low", "ci_high"):
+                row[f"{s['metric']}_{column}"] = s[column]
+    batched = [m for m in metrics if m.batched]
+    batches = [{"batch": b, "policies": part.size, **{m.name: float(m.compute(sample.subsample(part)))
+                                                      for m in batched}}
+               for b, part in enumerate(np.array_split(np.arange(len(distances)), settings.batches))]
+    return {
+        "occupancy.parquet": pd.DataFrame([row]),
+        "distances.parquet": pd.DataFrame({"policy": np.arange(len(distances)), "distance": distances}),
+        "bootstrap.parquet": draws,
+        "batches.parquet": pd.DataFrame(batches, columns=["batch", "policies", *(m.name for m in batched)]),
+    }
+
+
+def run_occupancy_stage(cache: Cache, request: RWGRequest, sac_key: str, actors_file: Path,
+                        settings: OccupancySettings, *, label: str = "", registry: Registry = DEFAULT_REGISTRY,
+                        force: bool = False, progress=None) -> tuple[Artefact, bool]:
+    """Compute (or reuse) one task's occupancy distances; returns (artefact, cache hit)."""
+    settings.validate()
+    key = occupancy_key(request, sac_key, settings, registry)
+
+    def write(directory):
+        distances, reference_pairs = compute_distances(request, actors_file, settings, progress=progress)
+        tables = compute_tables(distances, settings, episodes=settings.episodes, reference_pairs=reference_pairs,
+                                registry=registry)
+        for name, table in tables.items():
+            table.to_parquet(directory / name, index=False)
+        return {"label": label}
+
+    config = {**settings.identity(), "metrics": [m.name for m in registry.of_stage(STAGE)]}
+    return cache.get_or_compute(STAGE, key, write, config=config, inputs={"sac": sac_key}, force=force)
+
+
+def study_occupancy(cache: Cache, requests: Mapping[str, RWGRequest], actors: Mapping[str, tuple[str, Path]],
+                    settings: OccupancySettings, *, registry: Registry = DEFAULT_REGISTRY, force: bool = False,
+                    progress: bool = False) -> dict[str, Artefact]:
+    """The occupancy artefact of every task (id → artefact) that has a trained SAC actor in ``actors``.
+
+    ``actors``: task id → (key of its SAC artefact, the artefact's ``actors.npz``), e.g.
+    ``curves.attrs["sac_actors"]`` of :func:`~taskcomplexity.stages.sac_stage.study_sac_curves`. Tasks
+    without one are logged and left out.
+    """
+    if not settings.enabled or not registry.of_stage(STAGE):
+        return {}
+    missing = [t for t in requests if t not in actors]
+    if missing:
+        log.info("%-12s no trained SAC actor for %s (no SAC run, or a SAC artefact older than actor snapshots: "
+                 "force=true retrains it); no occupancy distance there", STAGE, ", ".join(missing))
+    chosen = [t for t in requests if t in actors]
+    episodes = len(chosen) * settings.episodes * settings.policies
+    stage = StageLog(STAGE)
+    with stage_bar(STAGE, episodes, "ep") if progress and chosen else nullcontext() as bar:
+        for task_id in chosen:
+            if bar is not None:
+                bar.set_postfix_str(task_id)
+            sac_key, actors_file = actors[task_id]
+            with stage.task(task_id) as record:
+                record.artefact, record.hit = run_occupancy_stage(
+                    cache, requests[task_id], sac_key, Path(actors_file), settings, label=task_id, registry=registry,
+                    force=force, progress=None if bar is None else bar.update)
+    stage.summarise()
+    return dict(zip(chosen, stage.artefacts, strict=True))
