@@ -28,8 +28,8 @@ from taskcomplexity.tasks.from_config import task_from_config
 CONF_DIR = Path(str(resources.files("taskcomplexity") / "conf"))
 """The packaged Hydra configs (``taskcomplexity/conf``, shipped as package data): every entry point's
 primary config directory, in a source checkout and in an installed package alike."""
-GROUPS = ("task", "arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "occupancy", "sac", "report",
-          "study", "experiment")
+GROUPS = ("task", "arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "occupancy", "learning_path",
+          "sac", "report", "study", "experiment")
 EXIT_BAD_INPUT = 2
 EXIT_DISK_FULL = 3
 EXIT_INTERRUPTED = 130
@@ -415,9 +415,11 @@ def check_study_settings(cfg: Any, study, requests) -> None:
         raise ConfigError(f"the diagnostics' k-NN estimate needs M > diagnostics.knn_neighbors = "
                           f"{diagnostics.knn_neighbors} episodes per policy, but M = {episodes} (rwg.episodes or "
                           f"study.episodes): allowed M >= {diagnostics.knn_neighbors + 1}")
+    from taskcomplexity.stages.learning_path_stage import LearningPathSettings
     from taskcomplexity.stages.occupancy_stage import OccupancySettings
 
     build(OccupancySettings, cfg.occupancy, "occupancy")
+    build(LearningPathSettings, cfg.learning_path, "learning_path")
     title = cfg.report.get("title")
     if title is not None and not isinstance(title, str):
         raise ConfigError(f"report.title must be a string or null (the study's own title), got {title!r}")

@@ -27,7 +27,7 @@ def write_report(artefacts: StudyArtefacts, out_dir: Path, title: str, *, regist
                     {study.label(r.task_id): r for r in results}}
     return build_report(results, study=study, verdict=artefacts.verdict, diagnostics=artefacts.diagnostics,
                         sac_curves=artefacts.sac_curves, out_dir=out_dir, title=title, ablation=ablation,
-                        alpha=artefacts.alpha, registry=registry)
+                        alpha=artefacts.alpha, registry=registry, further=artefacts.further)
 
 
 def sweep_job_dir() -> Path | None:

@@ -39,7 +39,7 @@ def test_a_snapshot_acts_as_the_actor_does_deterministically(task):
     policies = snapshots.policies()
     unit = policies.act(obs.double()).numpy()
     got = decode_actions(task.action_space, unit.reshape(-1, task.action_size)).reshape(expected.shape)
-    np.testing.assert_allclose(got, expected, atol=2e-6)  # float32 actor, float64 replay
+    np.testing.assert_allclose(got, expected, atol=1e-5)  # float32 actor, float64 replay (Pendulum: ×2)
     assert got.std() > 0.05  # not a constant: the test would see a wrong layer
 
 

@@ -93,7 +93,9 @@ def with_sac(tmp_path_factory):
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         cfg = compose("config", overrides=["experiment=smoke", "sac.total_steps=200", "sac.eval_every=100",
                                            "sac.checkpoint_every=100", "occupancy.policies=10",
-                                           "occupancy.batches=2", "occupancy.episodes=2", "occupancy.resamples=50"])
+                                           "occupancy.batches=2", "occupancy.episodes=2", "occupancy.resamples=50",
+                                           "learning_path.policies=10", "learning_path.batches=2",
+                                           "learning_path.episodes=4"])
     GlobalHydra.instance().clear()
     with open_dict(cfg):
         cfg.paths.outputs = str(tmp_path_factory.mktemp("occupancy") / "outputs")
@@ -107,8 +109,8 @@ def with_sac(tmp_path_factory):
 
 def test_with_sac_trained_every_task_gets_a_distance_and_the_verdict_judges_it(with_sac):
     cfg, artefacts, index = with_sac
-    assert set(artefacts.occupancy) == {"one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense"}
-    for artefact in artefacts.occupancy.values():
+    assert set(artefacts.further["occupancy"]) == {"one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense"}
+    for artefact in artefacts.further["occupancy"].values():
         distances = pd.read_parquet(artefact.file("distances.parquet"))["distance"]
         assert len(distances) == 10 and np.all(distances > 0) and np.isfinite(distances).all()
     verdict = pd.read_parquet(artefacts.verdict.file("verdict.parquet"))
@@ -116,14 +118,31 @@ def test_with_sac_trained_every_task_gets_a_distance_and_the_verdict_judges_it(w
     assert len(judged) == 3  # the three relations among the dense tasks
     assert set(judged["outcome"]) <= set(OUTCOMES) - {"undefined"}  # 2 batches of 5 distances a task: tested
     values = pd.read_parquet(artefacts.verdict.file("values.parquet"))
-    assert set(values.loc[values["metric"] == "ot_distance", "task"]) == set(artefacts.occupancy)
+    assert set(values.loc[values["metric"] == "ot_distance", "task"]) == set(artefacts.further["occupancy"])
     # the report answers the open question from the verdict: one sentence, and the relation-by-relation table
     report = (index.parent / "report.md").read_text()
     agree = int((judged["outcome"] == "agree").sum())
     contradict = int((judged["outcome"] == "contradict").sum())
     assert f"W₂ to SAC's policy agrees with {agree} and contradicts {contradict} of the 3 known relations" in report
     table = pd.read_csv(index.parent / "tables" / "beyond_the_paper.csv")
-    assert list(table.columns[-3:]) == ["PIC", "POIC", "W₂ to SAC's policy"] and len(table) == 3
+    assert list(table.columns[3:]) == ["PIC", "POIC", "W₂ to SAC's policy", "learning-path PIC",
+                                       "learning-path POIC"] and len(table) == 3
+    assert (index.parent / "figures" / "learning_path.png").stat().st_size > 0
+
+
+def test_the_learning_path_runs_at_every_sac_snapshot_and_enters_the_verdict(with_sac):
+    _, artefacts, _ = with_sac
+    paths = artefacts.further["learning_path"]
+    assert set(paths) == set(artefacts.further["occupancy"])
+    for artefact in paths.values():
+        path = pd.read_parquet(artefact.file("path.parquet"))
+        assert path["step"].tolist() == [0, 100, 200]  # step 0 and every checkpoint of the 200-step SAC run
+        row = pd.read_parquet(artefact.file("learning_path.parquet")).iloc[0]
+        assert row["path_pic"] == pytest.approx(path["pic"].mean())
+        assert row["path_poic"] == pytest.approx(path["poic"].mean())
+        assert (row["policies"], row["episodes"], row["snapshots"]) == (10, 4, 3)
+    values = pd.read_parquet(artefacts.verdict.file("values.parquet"))
+    assert set(values.loc[values["metric"] == "path_pic", "task"]) == set(paths)
 
 
 def test_the_occupancy_key_follows_its_settings_and_a_rerun_hits_the_cache(with_sac, caplog):
@@ -131,9 +150,9 @@ def test_the_occupancy_key_follows_its_settings_and_a_rerun_hits_the_cache(with_
 
     cfg, artefacts, _ = with_sac
     again = study_artefacts(cfg)
-    assert {t: a.key for t, a in again.occupancy.items()} == {t: a.key for t, a in artefacts.occupancy.items()}
+    assert {t: a.key for t, a in again.further["occupancy"].items()} == {t: a.key for t, a in artefacts.further["occupancy"].items()}
     with open_dict(cfg):
         cfg.occupancy.pairs = 50
     changed = study_artefacts(cfg)
-    assert not set(a.key for a in changed.occupancy.values()) & set(a.key for a in artefacts.occupancy.values())
+    assert not set(a.key for a in changed.further["occupancy"].values()) & set(a.key for a in artefacts.further["occupancy"].values())
     assert Path(changed.verdict.path) != Path(artefacts.verdict.path)

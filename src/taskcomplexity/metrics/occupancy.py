@@ -101,7 +101,8 @@ class OccupancySample:
 
     distances: np.ndarray
 
-    def subsample(self, rows: np.ndarray) -> OccupancySample:
+    def subsample(self, rows: np.ndarray, *, batch: int | None = None) -> OccupancySample:
+        """The distances of the policies at ``rows`` (``batch``: accepted for the stages' batch tables)."""
         return OccupancySample(np.asarray(self.distances)[np.asarray(rows)])
 
     @property

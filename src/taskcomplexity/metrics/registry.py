@@ -23,7 +23,9 @@ Functions by stage:
 - ``sac``: ``compute(per_seed) -> array`` of one value per seed, from one task's rows of
   :func:`~taskcomplexity.metrics.sac.seed_summary`;
 - ``occupancy``: ``compute(sample) -> float`` on an
-  :class:`~taskcomplexity.metrics.occupancy.OccupancySample` (K policies' distances, or a batch).
+  :class:`~taskcomplexity.metrics.occupancy.OccupancySample` (K policies' distances, or a batch);
+- ``learning_path``: ``compute(path) -> float`` on a
+  :class:`~taskcomplexity.metrics.learning_path.LearningPath` (one return matrix per snapshot).
 """
 
 from __future__ import annotations
@@ -38,9 +40,10 @@ import numpy as np
 BEYOND = "beyond the paper"
 """The family of the metrics the paper's conclusion proposes (the report answers its open question with them)."""
 
-STAGES = ("metrics", "diagnostics", "sac", "occupancy")
+STAGES = ("metrics", "diagnostics", "sac", "occupancy", "learning_path")
 """Stages that estimate metrics: the first two on return matrices, ``sac`` on learning curves,
-``occupancy`` on the occupancy distances of sampled policies to SAC's trained actor."""
+``occupancy`` on the occupancy distances of sampled policies to SAC's trained actor,
+``learning_path`` on the return matrices of policies around SAC's actor along training."""
 
 
 @dataclass(frozen=True)
@@ -269,6 +272,13 @@ DEFAULT_REGISTRY = Registry((
            why="the paper's third proposal: random policies whose state–action occupancy lies far (optimal "
                "transport, W₂) from the trained policy's rarely behave well, so good behaviour is rare under the "
                "prior"),
+    Metric("path_pic", "learning-path PIC", "path PIC", "nats", True, BEYOND, "learning_path",
+           compute=lambda p: p.pic, bootstrapped=True, batched=True, draws=lambda p: p.draws("pic"),
+           why="the paper's second proposal: PIC measured around the parameters SAC passes through while it "
+               "learns, where the choice of parameters matters to an optimiser, instead of around the prior's"),
+    Metric("path_poic", "learning-path POIC", "path POIC", "nats", True, BEYOND, "learning_path",
+           compute=lambda p: p.poic, bootstrapped=True, batched=True, draws=lambda p: p.draws("poic"),
+           why="the paper's second proposal, for POIC: the optimality information around SAC's learning path"),
     Metric("sac_final", "SAC final", "SAC final", "normalised return", True, "SAC", "sac",
            compute=_sac("sac", "final_normalised"), why=_SAC_WHY),
     Metric("sac_auc", "SAC AUC", "SAC AUC", "normalised return", True, "SAC", "sac",

@@ -7,9 +7,12 @@ metrics (PIC, POIC).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import pandas as pd
 
 from taskcomplexity.metrics.registry import BEYOND
+from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.html import Paragraph, Section
 from taskcomplexity.report.writer import Writer
@@ -17,6 +20,7 @@ from taskcomplexity.verdict import by_relation
 
 HOW_TO_COMPUTE = {
     "occupancy": "it needs a trained SAC actor for each task (SAC on: `make paper`, or `sac.enabled=true`)",
+    "learning_path": "it needs the snapshots of a SAC run for each task (SAC on: `make paper`, or `sac.enabled=true`)",
 }
 """Per registry stage: what a metric of that stage needs, said when the report has no value of it."""
 
@@ -26,35 +30,46 @@ def _relation(data: StudyData, row) -> str:
 
 
 def open_question_sentences(data: StudyData) -> list[str]:
-    """One sentence per proposed metric: its record against the known relations, and where PIC/POIC fail."""
+    """Where PIC and POIC contradict the known relations, then one sentence per proposed metric."""
     registry, verdict = data.registry, data.verdict["verdict"]
     proposed = [m for m in registry if m.family == BEYOND]
     primary = [m.name for m in registry if m.primary and (verdict["metric"] == m.name).any()]
+    names = " and ".join(registry.label(m) for m in primary)
+    relations = verdict[["easier", "harder", "kind"]].drop_duplicates()
     failing = verdict[verdict["metric"].isin(primary) & (verdict["outcome"] == "contradict")]
     failing = failing[["easier", "harder", "kind"]].drop_duplicates()
-    sentences = []
+    if failing.empty:
+        sentences = [f"{names} contradict none of the {len(relations)} known relations here, so no proposed metric "
+                     "has a contradiction to resolve; their own records follow."]
+    else:
+        listed = "; ".join(_relation(data, r) for _, r in failing.iterrows())
+        sentences = [f"{names.replace(' and ', ' or ')} contradicts {len(failing)} of the {len(relations)} known "
+                     f"relations ({listed})."]
     for metric in proposed:
         own = verdict[verdict["metric"] == metric.name]
+        label = metric.label[:1].upper() + metric.label[1:]
         if own.empty:
             needs = HOW_TO_COMPUTE.get(metric.stage, "its stage did not run")
-            sentences.append(f"{metric.label} was not computed for this report: {needs}.")
+            sentences.append(f"{label} was not computed for this report: {needs}.")
             continue
         agree, contradict = int((own["outcome"] == "agree").sum()), int((own["outcome"] == "contradict").sum())
-        sentence = (f"{metric.label} agrees with {agree} and contradicts {contradict} of the {len(own)} known "
-                    f"relations")
-        if failing.empty:
-            sentences.append(sentence + f"; {' and '.join(data.registry.label(m) for m in primary)} contradict none.")
-            continue
-        joined_rows = failing.merge(own, on=["easier", "harder", "kind"])
-        rescued = joined_rows[joined_rows["outcome"] == "agree"]
-        where = "; ".join(_relation(data, r) for _, r in rescued.iterrows())
-        sentences.append(sentence + f"; of the {len(failing)} relations PIC or POIC contradicts, it agrees on "
-                         f"{len(rescued)}" + (f" ({where})" if where else "") + ".")
+        sentence = f"{label} agrees with {agree} and contradicts {contradict} of the {len(own)} known relations"
+        if not failing.empty:
+            rescued = failing.merge(own, on=["easier", "harder", "kind"])
+            rescued = rescued[rescued["outcome"] == "agree"]
+            where = "; ".join(_relation(data, r) for _, r in rescued.iterrows())
+            sentence += (f"; where {names.replace(' and ', ' or ')} contradicts, it agrees on {len(rescued)} of "
+                         f"{len(failing)}" + (f" ({where})" if where else ""))
+        sentences.append(sentence + ".")
     return sentences
 
 
-def beyond_section(writer: Writer, data: StudyData) -> Section | None:
-    """The answer to the paper's open question, one sentence per proposed metric (None: none is registered)."""
+def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataFrame] | None = None
+                   ) -> Section | None:
+    """The answer to the paper's open question, one sentence per proposed metric (None: none is registered).
+
+    ``paths``: task id → the ``path.parquet`` of its learning-path artefact (its figure; none: no figure).
+    """
     proposed = [m for m in data.registry if m.family == BEYOND]
     if not proposed or data.verdict["verdict"].empty:
         return None
@@ -75,4 +90,12 @@ def beyond_section(writer: Writer, data: StudyData) -> Section | None:
                                    "The proposed metrics beside PIC and POIC, relation by relation.",
                                    "Outcome of Welch's test on each known relation (agree, contradict, not "
                                    "significant; empty: not computed)."))
+    if paths:
+        blocks.append(writer.figure(
+            [(fig.learning_path_figure({t: paths[t] for t in data.tasks if t in paths},
+                                       {t: data.styles[t] for t in data.tasks if t in paths}), "learning_path")],
+            "PIC and POIC along SAC's learning path.",
+            "At each snapshot of the trained SAC actor θ_k (step 0 and every checkpoint), the histogram PIC and "
+            "POIC of policies θ_k + σε (ε ~ N(0, I) over every actor parameter), each run for M episodes on the "
+            "task's RWG backend; dotted: the mean over the path, the learning-path metric."))
     return Section("Beyond the paper: the metrics its conclusion proposes", tuple(blocks))

@@ -66,6 +66,7 @@ def build_report(
     ablation: Mapping | None = None,
     alpha: float = SIGNIFICANCE_LEVEL,
     registry: Registry = DEFAULT_REGISTRY,
+    further: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> Path:
     """Write the study's report and return the path of its ``index.html``.
 
@@ -94,6 +95,9 @@ def build_report(
         Significance cut-off (for the wording; the verdict artefact holds the tests).
     registry : Registry
         The metrics' labels, units, directions and families.
+    further : mapping of stage to mapping of task id to artefact, optional
+        The artefacts of the stages built on SAC's trained actor; the learning-path ones give the
+        learning-path figure.
 
     Returns
     -------
@@ -113,7 +117,8 @@ def build_report(
         sections.sac_section(writer, data, sac_curves),
         sections.diagnostics_section(writer, data),
     ]
-    beyond = beyond_section(writer, data)
+    paths = {t: pd.read_parquet(a.file("path.parquet")) for t, a in (further or {}).get("learning_path", {}).items()}
+    beyond = beyond_section(writer, data, paths)
     if beyond is not None:
         page_sections.append(beyond)
     if ablation:

@@ -384,6 +384,27 @@ def sac_curves_figure(curves: pd.DataFrame, styles: Mapping[str, TaskStyle]) -> 
     return figure
 
 
+def learning_path_figure(paths: Mapping[str, pd.DataFrame], styles: Mapping[str, TaskStyle]) -> Figure:
+    """PIC_k and POIC_k around SAC's actor snapshots against the snapshot's env steps, one line per task.
+
+    ``paths``: task id → ``path.parquet`` of its learning-path artefact (``step``, ``pic``, ``poic``).
+    Left panel PIC_k, right panel POIC_k (nats); the dotted line is each task's path mean, the metric.
+    """
+    with paper_style():
+        figure, axes = _figure(1, 2, 2.8)
+        for ax, column, label in zip(axes[0], ("pic", "poic"), ("PIC", "POIC"), strict=True):
+            for task, path in paths.items():
+                style = styles[task]
+                ax.plot(path["step"], path[column], marker=style.marker, markersize=3, color=style.colour,
+                        label=style.name)
+                ax.axhline(path[column].mean(), color=style.colour, linestyle=":", linewidth=0.8)
+            ax.set_xlabel("SAC environment steps at the snapshot")
+            ax.set_ylabel(f"{label}ₖ around the actor (nats)")
+            ax.set_title(f"learning-path {label}")
+        axes[0][0].legend(frameon=False, fontsize="small")
+    return figure
+
+
 # (e) Estimator diagnostics --------------------------------------------------------------------
 
 

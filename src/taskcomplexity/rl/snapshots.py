@@ -24,6 +24,8 @@ from taskcomplexity.policies import PolicyBatch
 from taskcomplexity.rl.layers import SeedBatchedLinear
 
 ACTORS_FILE = "actors.npz"
+PERTURBATION_STREAM = 0x1EA4
+"""Spawn-key label of the perturbations ε of :meth:`ActorSnapshots.around` (apart from every other stream)."""
 
 
 def actor_layers(actor: torch.nn.Module, action_size: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -105,4 +107,34 @@ class ActorSnapshots:
         weights = [torch.as_tensor(w[snapshot], dtype=torch.float64).contiguous() for w in self.weights]
         biases = [torch.as_tensor(b[snapshot], dtype=torch.float64)[:, None, :] for b in self.biases]
         return PolicyBatch(weights=weights, biases=biases, indices=np.arange(len(self.seeds)),
+                           activation="relu", input_bias=False, output="tanh")
+
+    def around(self, snapshot: int, *, sigma: float, seed: int, indices: np.ndarray,
+               seed_index: int = 0) -> PolicyBatch:
+        """Policies θₙ = θ_k + σ·εₙ, εₙ ~ N(0, I) over every parameter (weights and biases) of the actor.
+
+        Parameters
+        ----------
+        snapshot : int
+            k, the snapshot's position (0 … K−1).
+        sigma : float
+            σ ≥ 0 (0: copies of the actor).
+        seed : int
+            Seed of the perturbations; εₙ depends on (seed, k, n) only, not on which other n are drawn.
+        indices : ndarray of int
+            n of each policy (its reset streams in RWG, too).
+        seed_index : int
+            Which SAC seed's actor θ_k is (position in :attr:`seeds`).
+        """
+        rows = []
+        k = int(np.arange(len(self.steps))[snapshot])
+        centre = [(w[k, seed_index].astype(np.float64), b[k, seed_index].astype(np.float64))
+                  for w, b in zip(self.weights, self.biases, strict=True)]
+        for n in np.asarray(indices, dtype=np.int64):
+            rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(PERTURBATION_STREAM, k, int(n))))
+            rows.append([(w + sigma * rng.standard_normal(w.shape), b + sigma * rng.standard_normal(b.shape))
+                         for w, b in centre])
+        weights = [torch.from_numpy(np.stack([r[i][0] for r in rows])).contiguous() for i in range(len(centre))]
+        biases = [torch.from_numpy(np.stack([r[i][1] for r in rows]))[:, None, :] for i in range(len(centre))]
+        return PolicyBatch(weights=weights, biases=biases, indices=np.asarray(indices, dtype=np.int64),
                            activation="relu", input_bias=False, output="tanh")

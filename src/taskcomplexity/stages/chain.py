@@ -17,6 +17,7 @@ from taskcomplexity.config import build
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact
 from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
+from taskcomplexity.stages.learning_path_stage import LearningPathSettings, study_learning_paths
 from taskcomplexity.stages.occupancy_stage import OccupancySettings, study_occupancy
 from taskcomplexity.stages.stage_log import StageLog, outcome
 from taskcomplexity.stages.task_artefacts import TaskMetrics, study_metrics
@@ -72,8 +73,8 @@ class StudyArtefacts:
         Each task's diagnostics artefact.
     sac_curves : pandas.DataFrame or None
         Tidy SAC curves (None: SAC off, or a study of variants).
-    occupancy : dict of task id to Artefact
-        Each task's occupancy-distance artefact (tasks with a trained SAC actor).
+    further : dict of stage to dict of task id to Artefact
+        The artefacts of the stages built on SAC's trained actor (``occupancy``, ``learning_path``).
     verdict : Artefact
         The verdict stage's artefact.
     alpha : float
@@ -87,7 +88,7 @@ class StudyArtefacts:
     sac_curves: pd.DataFrame | None
     verdict: Artefact
     alpha: float
-    occupancy: dict[str, Artefact] | None = None
+    further: dict[str, dict[str, Artefact]] | None = None
 
 
 def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyArtefacts:
@@ -102,17 +103,22 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
                                     force=force, progress=True)
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
     actors = {} if sac is None else sac.attrs.get("sac_actors", {})
-    occupancy = study_occupancy(cache, {r.task_id: r.request for r in results}, actors,
-                                build(OccupancySettings, cfg.occupancy, "occupancy"), registry=registry, force=force,
-                                progress=True)
+    tasks = {r.task_id: r.request for r in results}
+    further = {
+        "occupancy": study_occupancy(cache, tasks, actors, build(OccupancySettings, cfg.occupancy, "occupancy"),
+                                     registry=registry, force=force, progress=True),
+        "learning_path": study_learning_paths(cache, tasks, actors,
+                                              build(LearningPathSettings, cfg.learning_path, "learning_path"),
+                                              settings, registry=registry, force=force, progress=True),
+    }
     stage = StageLog("verdict")
     with stage.task(study.name) as record:
         record.artefact, record.hit = run_verdict_stage(
             cache, study, {r.task_id: r.metrics for r in results}, diagnostics=diagnostics, sac_curves=sac,
-            occupancy=occupancy, alpha=settings.alpha, registry=registry, force=force)
+            stages=further, alpha=settings.alpha, registry=registry, force=force)
     verdict = record.artefact
     log.info("%-12s %s: %s", "verdict", outcome(record.hit, record.seconds), verdict.file("verdict.parquet"))
-    return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha, occupancy)
+    return StudyArtefacts(study, run_name(cfg), results, diagnostics, sac, verdict, settings.alpha, further)
 
 
 def run_verdict(cfg: Any) -> Artefact:

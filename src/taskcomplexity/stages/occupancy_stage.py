@@ -29,11 +29,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from taskcomplexity import metrics as est
 from taskcomplexity.config import result_identity, setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.metrics.bootstrap import bootstrap_indices
 from taskcomplexity.metrics.occupancy import OccupancySample, occupancy_distances
+from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.policies import sample_policies
 from taskcomplexity.progress import stage_bar
@@ -125,31 +124,16 @@ def compute_distances(request: RWGRequest, actors_file: Path, settings: Occupanc
 def compute_tables(distances: np.ndarray, settings: OccupancySettings, *, episodes: int, reference_pairs: int,
                    registry: Registry = DEFAULT_REGISTRY) -> dict[str, pd.DataFrame]:
     """Every table of the stage from the K distances (see the module docstring)."""
-    sample = OccupancySample(np.asarray(distances, dtype=np.float64))
-    metrics = registry.of_stage(STAGE)
-    row = {"policies": len(distances), "episodes": episodes, "reference_pairs": reference_pairs}
-    for metric in metrics:
-        row[metric.name] = float(metric.compute(sample))
-        row.update({d.name: float(d.compute(sample)) for d in metric.details})
-    draws = {"resample": np.arange(settings.resamples)}
-    indices = bootstrap_indices(len(distances), resamples=settings.resamples, seed=settings.seed)
-    for metric in (m for m in metrics if m.bootstrapped):
-        draws[metric.name] = np.array([float(metric.compute(sample.subsample(i))) for i in indices])
-    draws = pd.DataFrame(draws)
-    bootstrapped = {m.name: row[m.name] for m in metrics if m.bootstrapped}
-    if bootstrapped:
-        for _, s in est.summarise_bootstrap(draws, bootstrapped).iterrows():
-            for column in ("mean", "sd", "ci_low", "ci_high"):
-                row[f"{s['metric']}_{column}"] = s[column]
-    batched = [m for m in metrics if m.batched]
-    batches = [{"batch": b, "policies": part.size, **{m.name: float(m.compute(sample.subsample(part)))
-                                                      for m in batched}}
-               for b, part in enumerate(np.array_split(np.arange(len(distances)), settings.batches))]
+    distances = np.asarray(distances, dtype=np.float64)
+    row, draws, batches = policy_sample_tables(OccupancySample(distances), registry.of_stage(STAGE),
+                                               policies=len(distances), resamples=settings.resamples,
+                                               seed=settings.seed, batches=settings.batches)
+    row = {"policies": len(distances), "episodes": episodes, "reference_pairs": reference_pairs, **row}
     return {
         "occupancy.parquet": pd.DataFrame([row]),
         "distances.parquet": pd.DataFrame({"policy": np.arange(len(distances)), "distance": distances}),
         "bootstrap.parquet": draws,
-        "batches.parquet": pd.DataFrame(batches, columns=["batch", "policies", *(m.name for m in batched)]),
+        "batches.parquet": batches,
     }
 
 

@@ -67,7 +67,7 @@ def verdict_key(
     *,
     alpha: float,
     registry: Registry,
-    occupancy: Mapping[str, str] | None = None,
+    stages: Mapping[str, Mapping[str, str]] | None = None,
 ) -> str:
     """Cache key of the verdict of ``study`` over the artefact keys given (task id → key)."""
     ids = list(metrics)
@@ -82,8 +82,9 @@ def verdict_key(
         "alpha": float(alpha),
         "registry": registry.signature(),
     }
-    if occupancy:
-        payload["occupancy"] = dict(occupancy)
+    for stage, keys in (stages or {}).items():  # the further policy-sample stages (occupancy, learning path)
+        if keys:
+            payload[stage] = dict(keys)
     return stage_key(STAGE, VERSION, payload)
 
 
@@ -94,7 +95,7 @@ def run_verdict_stage(
     *,
     diagnostics: Mapping[str, Artefact] | None = None,
     sac_curves: pd.DataFrame | None = None,
-    occupancy: Mapping[str, Artefact] | None = None,
+    stages: Mapping[str, Mapping[str, Artefact]] | None = None,
     alpha: float = SIGNIFICANCE_LEVEL,
     registry: Registry = DEFAULT_REGISTRY,
     force: bool = False,
@@ -113,8 +114,9 @@ def run_verdict_stage(
         Each task's diagnostics artefact (the other estimators); None leaves them out.
     sac_curves : pandas.DataFrame, optional
         Tidy SAC curves of the study (``task`` = study id); None or empty leaves SAC out.
-    occupancy : mapping of task id to Artefact, optional
-        Each task's occupancy-distance artefact (tasks with a trained SAC actor); None leaves it out.
+    stages : mapping of stage to mapping of task id to Artefact, optional
+        The artefacts of the further stages of :data:`~taskcomplexity.verdict.gather.RETURN_MATRIX_STAGES`
+        (``occupancy``, ``learning_path``: tasks with a trained SAC actor); a missing stage is left out.
     alpha : float, default 0.005
         Significance cut-off.
     registry : Registry
@@ -128,14 +130,18 @@ def run_verdict_stage(
         The artefact and whether the cache already held it.
     """
     diagnostics = {t: a for t, a in (diagnostics or {}).items() if t in metrics}
-    occupancy = {t: a for t, a in (occupancy or {}).items() if t in metrics}
+    further = {stage: {t: a for t, a in found.items() if t in metrics} for stage, found in (stages or {}).items()}
+    unknown = [s for s in further if s not in RETURN_MATRIX_STAGES or s in ("metrics", "diagnostics")]
+    if unknown:
+        raise ValueError(f"stages must be further stages of {list(RETURN_MATRIX_STAGES)[2:]}, got {sorted(unknown)}")
     sac = curves_digest(sac_curves)
     key = verdict_key(study, {t: a.key for t, a in metrics.items()}, {t: a.key for t, a in diagnostics.items()},
-                      sac, alpha=alpha, registry=registry, occupancy={t: a.key for t, a in occupancy.items()})
+                      sac, alpha=alpha, registry=registry,
+                      stages={s: {t: a.key for t, a in found.items()} for s, found in further.items()})
 
     def write(directory):
         tables = {}
-        for stage, artefacts in (("metrics", metrics), ("diagnostics", diagnostics), ("occupancy", occupancy)):
+        for stage, artefacts in (("metrics", metrics), ("diagnostics", diagnostics), *further.items()):
             files = RETURN_MATRIX_STAGES[stage]
             tables[stage] = {t: {f: pd.read_parquet(a.file(f)) for f in files} for t, a in artefacts.items()}
         values, samples, per_seed = gather(tables, registry=registry, sac_curves=sac_curves)
@@ -160,5 +166,5 @@ def run_verdict_stage(
               "sac": sac}
     inputs = {**{f"metrics/{t}": a.key for t, a in metrics.items()},
               **{f"diagnostics/{t}": a.key for t, a in diagnostics.items()},
-              **{f"occupancy/{t}": a.key for t, a in occupancy.items()}}
+              **{f"{s}/{t}": a.key for s, found in further.items() for t, a in found.items()}}
     return cache.get_or_compute(STAGE, key, write, config=config, inputs=inputs, force=force)

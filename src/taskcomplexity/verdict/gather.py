@@ -6,6 +6,7 @@ stage of the metric       values                                  samples of the
 metrics                   ``metrics.parquet`` (whole sample)      ``batches.parquet`` (policy batches)
 diagnostics               ``estimators.parquet`` (whole sample)   its ``batches.parquet``
 occupancy                 ``occupancy.parquet`` (K policies)      its ``batches.parquet``
+learning_path             ``learning_path.parquet`` (path mean)   its ``batches.parquet``
 sac                       mean over seeds                         one value per seed
 ========================  ======================================  ==================================
 """
@@ -22,7 +23,8 @@ from taskcomplexity.metrics.sac import seed_summary
 
 RETURN_MATRIX_STAGES = {"metrics": ("metrics.parquet", "batches.parquet"),
                         "diagnostics": ("estimators.parquet", "batches.parquet"),
-                        "occupancy": ("occupancy.parquet", "batches.parquet")}
+                        "occupancy": ("occupancy.parquet", "batches.parquet"),
+                        "learning_path": ("learning_path.parquet", "batches.parquet")}
 """Per stage estimating on policy samples (return matrices; the occupancy distances of sampled
 policies): (file of the point values, file of the per-batch samples)."""
 

@@ -1,0 +1,196 @@
+"""The learning-path stage: a task's SAC actor snapshots → PIC and POIC around each, and their path means.
+
+At every chosen snapshot θ_k of the trained SAC actor (``actors.npz`` of the SAC artefact: step 0
+and every checkpoint), N policies θₙ = θ_k + σεₙ run M episodes each on the task's RWG backend, and
+every registry metric of stage ``learning_path`` is estimated on the K return matrices
+(:class:`~taskcomplexity.metrics.learning_path.LearningPath`), with the metrics stage's estimator
+settings (bins, POIC search, bootstrap).
+
+Outputs under ``<cache>/learning_path/<key>/``:
+
+- ``learning_path.parquet``: one row: ``policies``, ``episodes``, ``snapshots``, ``sigma``, every
+  metric and ``<metric>_mean``, ``_sd``, ``_ci_low``, ``_ci_high`` of its bootstrap;
+- ``path.parquet``: per snapshot: ``step`` and PIC_k, H(R), H(R|Θ), POIC_k, H(O), H(O|Θ);
+- ``bootstrap.parquet``, ``batches.parquet``: as the metrics stage's.
+
+The key hashes the task, the backend and what changes its episodes, the SAC artefact's key, the
+settings, the estimator settings and the registry's signature of the stage.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from contextlib import nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from taskcomplexity.config import result_identity, setting
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.metrics.learning_path import LearningPath
+from taskcomplexity.metrics.policy_tables import policy_sample_tables
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.metrics.sample import Sample
+from taskcomplexity.progress import stage_bar
+from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.metrics_stage import MetricsSettings
+from taskcomplexity.stages.rwg_stage import RWGRequest
+from taskcomplexity.stages.stage_log import StageLog
+
+log = logging.getLogger(__name__)
+
+STAGE = "learning_path"
+VERSION = 1
+FILES = ("learning_path.parquet", "path.parquet", "bootstrap.parquet", "batches.parquet")
+
+
+@dataclass(frozen=True)
+class LearningPathSettings:
+    """How the learning path is sampled (``conf/learning_path``).
+
+    Attributes
+    ----------
+    enabled : bool
+        Compute it for every task whose SAC artefact holds actor snapshots.
+    every : int
+        Use every ``every``-th snapshot (the last one always).
+    sigma : float
+        σ of the Gaussian perturbation of every actor parameter (> 0).
+    policies, episodes : int
+        N perturbed policies per snapshot, M episodes each.
+    batches : int
+        Consecutive policy batches for the Welch tests (>= 2, at most N/2).
+    seed : int
+        Seed of the perturbations and of the episodes' reset states.
+    seed_index : int
+        Which SAC seed's actor (position in ``sac.seeds``).
+    """
+
+    enabled: bool = setting(True, result=False)
+    every: int = 1
+    sigma: float = 1.0
+    policies: int = 100
+    episodes: int = 10
+    batches: int = 5
+    seed: int = 0
+    seed_index: int = 0
+
+    def validate(self) -> LearningPathSettings:
+        for name, minimum in (("every", 1), ("episodes", 2), ("batches", 2)):
+            if getattr(self, name) < minimum:
+                raise ConfigError(f"learning_path.{name} must be an integer >= {minimum}, got {getattr(self, name)}")
+        if self.policies < 2 * self.batches:
+            raise ConfigError(f"learning_path.policies must be at least 2 × learning_path.batches = "
+                              f"{2 * self.batches} (2 policies per batch), got {self.policies}")
+        if not (self.sigma >= 0 and np.isfinite(self.sigma)):
+            raise ConfigError(f"learning_path.sigma must be a finite number >= 0, got {self.sigma}")
+        if self.seed < 0 or self.seed_index < 0:
+            raise ConfigError(f"learning_path.seed and learning_path.seed_index must be >= 0, got {self.seed}, "
+                              f"{self.seed_index}")
+        return self
+
+    def identity(self) -> dict:
+        return result_identity(self)
+
+
+def chosen_snapshots(count: int, every: int) -> list[int]:
+    """Positions of the snapshots used: 0, every, 2·every, … and always the last."""
+    return sorted({*range(0, count, every), count - 1})
+
+
+def learning_path_key(request: RWGRequest, sac_key: str, settings: LearningPathSettings, metrics: MetricsSettings,
+                      registry: Registry) -> str:
+    rwg = request.identity()
+    episodes = {k: v for k, v in rwg.items() if k in ("task", "backend", "contacts", "common_initial_states")}
+    return stage_key(STAGE, VERSION, {"episodes": episodes, "sac": sac_key, **settings.identity(),
+                                      "estimation": metrics.identity(), "metrics": registry.signature(STAGE)})
+
+
+def compute_path(request: RWGRequest, actors_file: Path, settings: LearningPathSettings, metrics: MetricsSettings,
+                 progress=None) -> LearningPath:
+    """The K return matrices of the perturbed actors (the episodes are RWG's on ``request``'s backend)."""
+    from taskcomplexity.rl.snapshots import ActorSnapshots
+    from taskcomplexity.rwg.given_policies import run_policies
+
+    snapshots = ActorSnapshots.load(actors_file)
+    if settings.seed_index >= len(snapshots.seeds):
+        raise ConfigError(f"learning_path.seed_index={settings.seed_index}, but SAC trained "
+                          f"{len(snapshots.seeds)} seed(s): allowed 0 … {len(snapshots.seeds) - 1}")
+    chosen = chosen_snapshots(len(snapshots.steps), settings.every)
+    indices = np.arange(settings.policies)
+    samples = []
+    for k in chosen:
+        policies = snapshots.around(k, sigma=settings.sigma, seed=settings.seed, indices=indices,
+                                    seed_index=settings.seed_index)
+        run = run_policies(request.task, policies, seed=settings.seed, episodes=settings.episodes,
+                           backend=request.backend, common_initial_states=request.settings.common_initial_states,
+                           contacts=request.settings.contacts)
+        samples.append(Sample(run.returns, metrics.estimation()))
+        if progress is not None:
+            progress(settings.policies * settings.episodes)
+    return LearningPath(snapshots.steps[chosen], tuple(samples))
+
+
+def compute_tables(path: LearningPath, settings: LearningPathSettings, metrics: MetricsSettings, *,
+                   registry: Registry = DEFAULT_REGISTRY) -> dict[str, pd.DataFrame]:
+    """Every table of the stage (see the module docstring)."""
+    estimation = metrics.estimation()
+    row, draws, batches = policy_sample_tables(path, registry.of_stage(STAGE), policies=settings.policies,
+                                               resamples=estimation.resamples, seed=estimation.bootstrap_seed,
+                                               batches=settings.batches)
+    row = {"policies": settings.policies, "episodes": settings.episodes, "snapshots": len(path.steps),
+           "sigma": settings.sigma, **row}
+    return {"learning_path.parquet": pd.DataFrame([row]), "path.parquet": path.curve(),
+            "bootstrap.parquet": draws, "batches.parquet": batches}
+
+
+def run_learning_path_stage(cache: Cache, request: RWGRequest, sac_key: str, actors_file: Path,
+                            settings: LearningPathSettings, metrics: MetricsSettings, *, label: str = "",
+                            registry: Registry = DEFAULT_REGISTRY, force: bool = False,
+                            progress=None) -> tuple[Artefact, bool]:
+    """Compute (or reuse) one task's learning path; returns (artefact, cache hit)."""
+    settings.validate()
+    key = learning_path_key(request, sac_key, settings, metrics, registry)
+
+    def write(directory):
+        path = compute_path(request, actors_file, settings, metrics, progress=progress)
+        for name, table in compute_tables(path, settings, metrics, registry=registry).items():
+            table.to_parquet(directory / name, index=False)
+        return {"label": label}
+
+    config = {**settings.identity(), "metrics": [m.name for m in registry.of_stage(STAGE)]}
+    return cache.get_or_compute(STAGE, key, write, config=config, inputs={"sac": sac_key}, force=force)
+
+
+def study_learning_paths(cache: Cache, requests: Mapping[str, RWGRequest], actors: Mapping[str, tuple[str, Path]],
+                         settings: LearningPathSettings, metrics: MetricsSettings, *,
+                         registry: Registry = DEFAULT_REGISTRY, force: bool = False,
+                         progress: bool = False) -> dict[str, Artefact]:
+    """The learning-path artefact of every task (id → artefact) with a trained SAC actor in ``actors``
+    (task id → (SAC key, its ``actors.npz``)); the others are left out."""
+    if not settings.enabled or not registry.of_stage(STAGE):
+        return {}
+    chosen = [t for t in requests if t in actors]
+    stage = StageLog(STAGE)
+    counts = {}
+    for task_id in chosen:
+        with np.load(actors[task_id][1]) as data:
+            counts[task_id] = len(chosen_snapshots(len(data["steps"]), settings.every))
+    episodes = sum(counts.values()) * settings.policies * settings.episodes
+    with stage_bar(STAGE, episodes, "ep") if progress and chosen else nullcontext() as bar:
+        for task_id in chosen:
+            if bar is not None:
+                bar.set_postfix_str(task_id)
+            sac_key, actors_file = actors[task_id]
+            with stage.task(task_id) as record:
+                record.artefact, record.hit = run_learning_path_stage(
+                    cache, requests[task_id], sac_key, Path(actors_file), settings, metrics, label=task_id,
+                    registry=registry, force=force, progress=None if bar is None else bar.update)
+            if bar is not None and record.hit:
+                bar.update(counts[task_id] * settings.policies * settings.episodes)
+    stage.summarise()
+    return dict(zip(chosen, stage.artefacts, strict=True))
