@@ -143,23 +143,14 @@ def train_sac(
     )
 
 
-def train_sac_seeds(
-    task: Task,
-    settings: SACSettings,
-    *,
-    seeds: Sequence[int] | None = None,
-    checkpoint_dir: Path | None = None,
-    progress: bool = False,
-    stop_after: int | None = None,
-    solved_return: float | None = None,
-) -> pd.DataFrame:
+def train_sac_seeds(task: Task, settings: SACSettings, **options: Any) -> pd.DataFrame:
     """Train ``seeds`` (default ``settings.seeds``) on ``task``; their curves stacked (see :func:`train_sac`).
 
     With ``settings.train_seeds_together`` the seeds train in one vectorised run; otherwise one
-    after the other, each as :func:`train_sac` (checkpoints in ``checkpoint_dir/seed-<s>``).
+    after the other, each as :func:`train_sac` (checkpoints in ``checkpoint_dir/seed-<s>``). The
+    keyword options are :func:`train_sac_run`'s.
     """
-    return train_sac_run(task, settings, seeds=seeds, checkpoint_dir=checkpoint_dir, progress=progress,
-                         stop_after=stop_after, solved_return=solved_return)[0]
+    return train_sac_run(task, settings, **options)[0]
 
 
 def train_sac_run(

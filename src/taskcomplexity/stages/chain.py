@@ -57,6 +57,18 @@ def _sac_curves(cfg: Any, cache, results):
     return curves
 
 
+def _further_stages(cfg: Any, cache, results, actors, settings, registry: Registry, force: bool) -> dict:
+    """The stages built on SAC's trained actors (task id → (SAC key, ``actors.npz``)): occupancy, learning path."""
+    tasks = {r.task_id: r.request for r in results}
+    return {
+        "occupancy": study_occupancy(cache, tasks, actors, build(OccupancySettings, cfg.occupancy, "occupancy"),
+                                     registry=registry, force=force, progress=True),
+        "learning_path": study_learning_paths(cache, tasks, actors,
+                                              build(LearningPathSettings, cfg.learning_path, "learning_path"),
+                                              settings, registry=registry, force=force, progress=True),
+    }
+
+
 @dataclass(frozen=True)
 class StudyArtefacts:
     """Every artefact of a study, in study order.
@@ -102,15 +114,8 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
                                     build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"), registry=registry,
                                     force=force, progress=True)
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
-    actors = {} if sac is None else sac.attrs.get("sac_actors", {})
-    tasks = {r.task_id: r.request for r in results}
-    further = {
-        "occupancy": study_occupancy(cache, tasks, actors, build(OccupancySettings, cfg.occupancy, "occupancy"),
-                                     registry=registry, force=force, progress=True),
-        "learning_path": study_learning_paths(cache, tasks, actors,
-                                              build(LearningPathSettings, cfg.learning_path, "learning_path"),
-                                              settings, registry=registry, force=force, progress=True),
-    }
+    further = {} if sac is None else _further_stages(cfg, cache, results, sac.attrs.get("sac_actors", {}), settings,
+                                                      registry, force)
     stage = StageLog("verdict")
     with stage.task(study.name) as record:
         record.artefact, record.hit = run_verdict_stage(

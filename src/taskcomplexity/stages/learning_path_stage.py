@@ -19,9 +19,7 @@ settings, the estimator settings and the registry's signature of the stage.
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Mapping
-from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,14 +32,11 @@ from taskcomplexity.metrics.learning_path import LearningPath
 from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Sample
-from taskcomplexity.progress import stage_bar
+from taskcomplexity.stages.actor_stages import over_actor_tasks
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.stages.stage_log import StageLog
-
-log = logging.getLogger(__name__)
 
 STAGE = "learning_path"
 VERSION = 1
@@ -171,26 +166,17 @@ def study_learning_paths(cache: Cache, requests: Mapping[str, RWGRequest], actor
                          registry: Registry = DEFAULT_REGISTRY, force: bool = False,
                          progress: bool = False) -> dict[str, Artefact]:
     """The learning-path artefact of every task (id → artefact) with a trained SAC actor in ``actors``
-    (task id → (SAC key, its ``actors.npz``)); the others are left out."""
+    (task id → (SAC key, its ``actors.npz``); :func:`~taskcomplexity.stages.actor_stages.over_actor_tasks`)."""
     if not settings.enabled or not registry.of_stage(STAGE):
         return {}
-    chosen = [t for t in requests if t in actors]
-    stage = StageLog(STAGE)
-    counts = {}
-    for task_id in chosen:
+
+    def episodes(task_id: str) -> int:
         with np.load(actors[task_id][1]) as data:
-            counts[task_id] = len(chosen_snapshots(len(data["steps"]), settings.every))
-    episodes = sum(counts.values()) * settings.policies * settings.episodes
-    with stage_bar(STAGE, episodes, "ep") if progress and chosen else nullcontext() as bar:
-        for task_id in chosen:
-            if bar is not None:
-                bar.set_postfix_str(task_id)
-            sac_key, actors_file = actors[task_id]
-            with stage.task(task_id) as record:
-                record.artefact, record.hit = run_learning_path_stage(
-                    cache, requests[task_id], sac_key, Path(actors_file), settings, metrics, label=task_id,
-                    registry=registry, force=force, progress=None if bar is None else bar.update)
-            if bar is not None and record.hit:
-                bar.update(counts[task_id] * settings.policies * settings.episodes)
-    stage.summarise()
-    return dict(zip(chosen, stage.artefacts, strict=True))
+            snapshots = len(chosen_snapshots(len(data["steps"]), settings.every))
+        return snapshots * settings.policies * settings.episodes
+
+    def run(task_id, sac_key, actors_file, advance):
+        return run_learning_path_stage(cache, requests[task_id], sac_key, actors_file, settings, metrics,
+                                       label=task_id, registry=registry, force=force, progress=advance)
+
+    return over_actor_tasks(STAGE, list(requests), actors, run, episodes=episodes, progress=progress)

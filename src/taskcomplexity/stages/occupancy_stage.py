@@ -20,9 +20,7 @@ artefact's key (the reference actor), the settings and the registry's signature 
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Mapping
-from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,14 +33,11 @@ from taskcomplexity.metrics.occupancy import OccupancySample, occupancy_distance
 from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.policies import sample_policies
-from taskcomplexity.progress import stage_bar
 from taskcomplexity.seeding import derive_seed
+from taskcomplexity.stages.actor_stages import over_actor_tasks
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.stages.stage_log import StageLog
-
-log = logging.getLogger(__name__)
 
 STAGE = "occupancy"
 VERSION = 1
@@ -159,29 +154,14 @@ def run_occupancy_stage(cache: Cache, request: RWGRequest, sac_key: str, actors_
 def study_occupancy(cache: Cache, requests: Mapping[str, RWGRequest], actors: Mapping[str, tuple[str, Path]],
                     settings: OccupancySettings, *, registry: Registry = DEFAULT_REGISTRY, force: bool = False,
                     progress: bool = False) -> dict[str, Artefact]:
-    """The occupancy artefact of every task (id → artefact) that has a trained SAC actor in ``actors``.
-
-    ``actors``: task id → (key of its SAC artefact, the artefact's ``actors.npz``), e.g.
-    ``curves.attrs["sac_actors"]`` of :func:`~taskcomplexity.stages.sac_stage.study_sac_curves`. Tasks
-    without one are logged and left out.
-    """
+    """The occupancy artefact of every task (id → artefact) that has a trained SAC actor in ``actors``
+    (task id → (SAC key, its ``actors.npz``); :func:`~taskcomplexity.stages.actor_stages.over_actor_tasks`)."""
     if not settings.enabled or not registry.of_stage(STAGE):
         return {}
-    missing = [t for t in requests if t not in actors]
-    if missing:
-        log.info("%-12s no trained SAC actor for %s (no SAC run, or a SAC artefact older than actor snapshots: "
-                 "force=true retrains it); no occupancy distance there", STAGE, ", ".join(missing))
-    chosen = [t for t in requests if t in actors]
-    episodes = len(chosen) * settings.episodes * settings.policies
-    stage = StageLog(STAGE)
-    with stage_bar(STAGE, episodes, "ep") if progress and chosen else nullcontext() as bar:
-        for task_id in chosen:
-            if bar is not None:
-                bar.set_postfix_str(task_id)
-            sac_key, actors_file = actors[task_id]
-            with stage.task(task_id) as record:
-                record.artefact, record.hit = run_occupancy_stage(
-                    cache, requests[task_id], sac_key, Path(actors_file), settings, label=task_id, registry=registry,
-                    force=force, progress=None if bar is None else bar.update)
-    stage.summarise()
-    return dict(zip(chosen, stage.artefacts, strict=True))
+
+    def run(task_id, sac_key, actors_file, advance):
+        return run_occupancy_stage(cache, requests[task_id], sac_key, actors_file, settings, label=task_id,
+                                   registry=registry, force=force, progress=advance)
+
+    return over_actor_tasks(STAGE, list(requests), actors, run, progress=progress,
+                            episodes=lambda _: settings.policies * settings.episodes)

@@ -1,0 +1,72 @@
+"""Running a stage built on SAC's trained actors over a study's tasks: the occupancy and learning-path stages.
+
+Both need, per task, the key of its SAC artefact and the artefact's ``actors.npz``
+(``curves.attrs["sac_actors"]`` of :func:`~taskcomplexity.stages.sac_stage.study_sac_curves`); a task
+without one (no SAC run, discrete actions, or a SAC artefact older than the snapshots) is left out.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping
+from contextlib import nullcontext
+from pathlib import Path
+
+from taskcomplexity.progress import stage_bar
+from taskcomplexity.stages.cache import Artefact
+from taskcomplexity.stages.stage_log import StageLog
+
+log = logging.getLogger(__name__)
+
+
+def over_actor_tasks(
+    stage: str,
+    tasks: list[str],
+    actors: Mapping[str, tuple[str, Path]],
+    run: Callable[[str, str, Path, Callable[[float], object] | None], tuple[Artefact, bool]],
+    *,
+    episodes: Callable[[str], int],
+    progress: bool = False,
+) -> dict[str, Artefact]:
+    """``run(task_id, sac_key, actors_file, advance)`` for every task of ``tasks`` that has an actor.
+
+    Parameters
+    ----------
+    stage : str
+        The stage's name (its bar and log lines).
+    tasks : list of str
+        Study task ids, in order.
+    actors : mapping of task id to (SAC key, path of ``actors.npz``)
+    run : callable
+        Computes or reuses one task's artefact; ``advance(n)`` moves the stage's bar by n episodes
+        (None without a bar). Returns (artefact, cache hit).
+    episodes : callable
+        Episodes a task's artefact costs (the bar's total; a cache hit advances it at once).
+    progress : bool
+        Show one bar over the stage's episodes.
+
+    Returns
+    -------
+    dict of task id to Artefact, for the tasks with an actor.
+    """
+    missing = [t for t in tasks if t not in actors]
+    chosen = [t for t in tasks if t in actors]
+    if missing and chosen:
+        log.info("%-12s no trained SAC actor for %s (a SAC artefact older than actor snapshots: force=true "
+                 "retrains it); left out", stage, ", ".join(missing))
+    if not chosen:
+        return {}
+    log_ = StageLog(stage)
+    total = sum(episodes(t) for t in chosen)
+    with stage_bar(stage, total, "ep") if progress else nullcontext() as bar:
+        for task_id in chosen:
+            if bar is not None:
+                bar.set_postfix_str(task_id)
+            sac_key, actors_file = actors[task_id]
+            with log_.task(task_id) as record:
+                record.artefact, record.hit = run(task_id, sac_key, Path(actors_file),
+                                                  None if bar is None else bar.update)
+            if bar is not None and record.hit:
+                bar.update(episodes(task_id))
+    log_.summarise()
+    return dict(zip(chosen, log_.artefacts, strict=True))
