@@ -162,7 +162,7 @@ def train_sac_run(
     progress: bool = False,
     stop_after: int | None = None,
     solved_return: float | None = None,
-) -> tuple[pd.DataFrame, ActorSnapshots]:
+) -> tuple[pd.DataFrame, ActorSnapshots | None]:
     """As :func:`train_sac_seeds`, with the actors' snapshots: at step 0 and at every checkpoint boundary
     (every ``checkpoint_every`` steps and the last step), for every seed."""
     seeds = tuple(int(s) for s in (settings.seeds if seeds is None else seeds))

@@ -57,8 +57,12 @@ def _sac_curves(cfg: Any, cache, results):
     return curves
 
 
-def _further_stages(cfg: Any, cache, results, actors, settings, registry: Registry, force: bool) -> dict:
-    """The stages built on SAC's trained actors (task id → (SAC key, ``actors.npz``)): occupancy, learning path."""
+def _further_stages(cfg: Any, cache, results, sac_curves: pd.DataFrame, settings, registry: Registry,
+                    force: bool) -> dict:
+    """The stages built on the trained actors of SAC's artefacts: occupancy, learning path."""
+    from taskcomplexity.stages.sac_stage import ACTORS_ATTR
+
+    actors = sac_curves.attrs.get(ACTORS_ATTR, {})  # task id → (SAC key, actors.npz)
     tasks = {r.task_id: r.request for r in results}
     return {
         "occupancy": study_occupancy(cache, tasks, actors, build(OccupancySettings, cfg.occupancy, "occupancy"),
@@ -114,8 +118,7 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
                                     build(DiagnosticsSettings, cfg.diagnostics, "diagnostics"), registry=registry,
                                     force=force, progress=True)
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
-    further = {} if sac is None else _further_stages(cfg, cache, results, sac.attrs.get("sac_actors", {}), settings,
-                                                      registry, force)
+    further = {} if sac is None else _further_stages(cfg, cache, results, sac, settings, registry, force)
     stage = StageLog("verdict")
     with stage.task(study.name) as record:
         record.artefact, record.hit = run_verdict_stage(
