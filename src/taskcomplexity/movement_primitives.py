@@ -18,6 +18,7 @@ Everything here is batched: B primitives (e.g. policies × episodes) of J joints
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -66,9 +67,18 @@ class DMPSpec:
         gaps = np.abs(np.diff(c))
         return 1.0 / np.append(gaps, gaps[-1]) ** 2
 
+    @cached_property
+    def _basis(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.centres(), self.widths()  # once per spec: the integration calls activations per sub-step
+
+    def activations(self, x: np.ndarray) -> np.ndarray:
+        """ψᵢ(x) for phases ``x`` (n,) → (n, K)."""
+        centres, widths = self._basis
+        return np.exp(-widths * (np.asarray(x)[:, None] - centres) ** 2)
+
     def forcing(self, x: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """Σᵢ ψᵢ(x) wᵢ / Σᵢ ψᵢ(x) · x for phases ``x`` (B,) and ``weights`` (B, J, K) → (B, J)."""
-        psi = np.exp(-self.widths() * (np.asarray(x)[:, None] - self.centres()) ** 2)  # (B, K)
+        psi = self.activations(x)  # (B, K)
         psi_sum = psi.sum(axis=1)
         return np.einsum("bk,bjk->bj", psi, weights) / psi_sum[:, None] * np.asarray(x)[:, None]
 
@@ -124,7 +134,7 @@ class DMPSpec:
         x = np.exp(-self.alpha_x * t / duration)
         # τ²ÿ = α_z(β_z(g − y) − τẏ) + f  ⇒  f needed at every sample
         needed = duration ** 2 * ydd - self.alpha_z * (self.beta_z * (goal - y) - duration * yd)
-        psi = np.exp(-self.widths() * (x[:, None] - self.centres()) ** 2)  # (T+1, K)
+        psi = self.activations(x)  # (T+1, K)
         s = x[:, None] * (goal - start)  # (T+1, J)
         numerator = np.einsum("tk,tj->jk", psi, s * needed)
         denominator = np.einsum("tk,tj->jk", psi, s * s)
