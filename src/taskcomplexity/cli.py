@@ -29,7 +29,7 @@ CONF_DIR = Path(str(resources.files("taskcomplexity") / "conf"))
 """The packaged Hydra configs (``taskcomplexity/conf``, shipped as package data): every entry point's
 primary config directory, in a source checkout and in an installed package alike."""
 GROUPS = ("task", "arm", "reward", "prior", "network", "rwg", "metrics", "diagnostics", "occupancy", "learning_path",
-          "sac", "report", "study", "experiment")
+          "primitives", "sac", "report", "study", "experiment")
 EXIT_BAD_INPUT = 2
 EXIT_DISK_FULL = 3
 EXIT_INTERRUPTED = 130
@@ -208,10 +208,11 @@ def one_line_errors(fn):
 
 
 def sampler_from_config(cfg: Any):
-    """(NetworkSpec, PriorSpec) of a composed config."""
-    from taskcomplexity.policies import NetworkSpec, PriorSpec
+    """(the network's spec, of its family, and the PriorSpec) of a composed config."""
+    from taskcomplexity.families import network_from_config
+    from taskcomplexity.policies import PriorSpec
 
-    return build(NetworkSpec, cfg.network, "network"), build(PriorSpec, cfg.prior, "prior")
+    return network_from_config(cfg.network), build(PriorSpec, cfg.prior, "prior")
 
 
 def rwg_request_from_config(cfg: Any, task=None):
@@ -226,7 +227,7 @@ def rwg_request_from_config(cfg: Any, task=None):
         refuse_unread_overrides(task, user_overrides())
     network, prior = sampler_from_config(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
-    return RWGRequest(task, network, prior, settings, resolve_backend(task, str(cfg.backend)))
+    return RWGRequest(task, network, prior, settings, resolve_backend(task, str(cfg.backend), network))
 
 
 def refuse_unread_groups(typed: list[str], unread: tuple[str, ...], command: str, instead: str) -> None:
@@ -390,7 +391,8 @@ def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
         node = entry_config(cfg, entry, typed, f"study.tasks[{i}]", family)
         task = task_from_config(node)
         network, prior = sampler_from_config(node)
-        out.append((entry, RWGRequest(task, network, prior, settings, resolve_backend(task, str(node.backend)))))
+        backend = resolve_backend(task, str(node.backend), network)
+        out.append((entry, RWGRequest(task, network, prior, settings, backend)))
     return out
 
 
@@ -417,9 +419,14 @@ def check_study_settings(cfg: Any, study, requests) -> None:
                           f"study.episodes): allowed M >= {diagnostics.knn_neighbors + 1}")
     from taskcomplexity.stages.learning_path_stage import LearningPathSettings
     from taskcomplexity.stages.occupancy_stage import OccupancySettings
+    from taskcomplexity.stages.primitives_stage import PrimitivesSettings
 
     build(OccupancySettings, cfg.occupancy, "occupancy")
     build(LearningPathSettings, cfg.learning_path, "learning_path")
+    primitives = PrimitivesSettings.from_config(cfg.primitives)
+    if primitives.enabled and study.kind != "variants":
+        for request in requests:
+            primitives.request(request)  # N, M and the backend checked before any work
     title = cfg.report.get("title")
     if title is not None and not isinstance(title, str):
         raise ConfigError(f"report.title must be a string or null (the study's own title), got {title!r}")

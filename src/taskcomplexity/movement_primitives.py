@@ -83,8 +83,9 @@ class DMPSpec:
         return np.einsum("bk,bjk->bj", psi, weights) / psi_sum[:, None] * np.asarray(x)[:, None]
 
     def rollout(self, weights: np.ndarray, start: np.ndarray, goal: np.ndarray, *, duration: float,
-                steps: int) -> np.ndarray:
-        """Positions y at ``steps`` + 1 equally spaced times over [0, ``duration``].
+                steps: int, extra_steps: int = 0) -> np.ndarray:
+        """Positions y at ``steps`` + 1 equally spaced times over [0, ``duration``] (and ``extra_steps``
+        more at the same spacing after it, while the phase fades and the spring holds y at g).
 
         Parameters
         ----------
@@ -94,11 +95,13 @@ class DMPSpec:
         duration : float
             τ, seconds.
         steps : int
-            Output steps; each is integrated with ``substeps`` Euler sub-steps.
+            Output steps over τ; each is integrated with ``substeps`` Euler sub-steps.
+        extra_steps : int
+            Output steps after τ.
 
         Returns
         -------
-        ndarray (B, steps + 1, J): y(0) = y₀, …, y(τ).
+        ndarray (B, steps + extra_steps + 1, J): y(0) = y₀, …, y(τ), ….
         """
         self.validate()
         weights = np.asarray(weights, dtype=np.float64)
@@ -108,9 +111,9 @@ class DMPSpec:
         z = np.zeros_like(y)
         x = np.ones(y.shape[0])
         dt = duration / (steps * self.substeps)
-        out = np.empty((y.shape[0], steps + 1, y.shape[1]))
+        out = np.empty((y.shape[0], steps + extra_steps + 1, y.shape[1]))
         out[:, 0] = y
-        for step in range(steps):
+        for step in range(steps + extra_steps):
             for _ in range(self.substeps):
                 f = self.forcing(x, weights) * amplitude
                 dz = (self.alpha_z * (self.beta_z * (goal - y) - z) + f) / duration

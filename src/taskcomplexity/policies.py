@@ -61,6 +61,8 @@ class NetworkSpec:
     output : {'tanh', 'linear'}
         Output activation. ``linear``: Discrete actions are the argmax of the raw outputs, Box actions
         decode tanh(output), i.e. high·tanh(output) for symmetric bounds (as in the original family).
+    family : str
+        ``mlp`` (:mod:`taskcomplexity.families` declares the others).
     """
 
     hidden: tuple[int, ...] = (32, 32)
@@ -68,10 +70,13 @@ class NetworkSpec:
     activation: str = "relu"
     input_bias: bool = False
     output: str = "tanh"
+    family: str = "mlp"
 
-    ADDED: ClassVar[dict] = {"activation": "relu", "input_bias": False, "output": "tanh"}
+    ADDED: ClassVar[dict] = {"activation": "relu", "input_bias": False, "output": "tanh", "family": "mlp"}
 
     def validate(self) -> None:
+        if self.family != "mlp":
+            raise ConfigError(f"network.family must be 'mlp' for an MLP, got {self.family!r}")
         if any(h < 1 for h in self.hidden):
             raise ConfigError(f"network.hidden must be a list of integers >= 1 (empty: no hidden layer), "
                               f"got {list(self.hidden)}")
@@ -87,6 +92,21 @@ class NetworkSpec:
     def identity(self) -> dict:
         """The fields that key the returns (the newer ones only when they differ from their defaults)."""
         return _identity(self, self.ADDED)
+
+    @property
+    def tag(self) -> str:
+        """Short name in run labels, e.g. 'mlp32x32+b'."""
+        return "mlp" + "x".join(map(str, self.hidden)) + ("+b" if self.bias else "")
+
+    def describe(self) -> str:
+        """E.g. 'MLP 64×64, tanh hidden, linear output, without biases' (the report's methods box)."""
+        hidden = "×".join(map(str, self.hidden)) or "linear (no hidden layer)"
+        bias = "a constant input 1.0 as bias" if self.input_bias else ("with" if self.bias else "without") + " biases"
+        return f"MLP {hidden}, {self.activation} hidden, {self.output} output, {bias}"
+
+    def working_floats(self, observation_size: int, action_size: int, max_steps: int) -> int:
+        """Floats of activations and temporaries one environment holds during a forward pass."""
+        return 4 * (max(self.hidden, default=0) + observation_size + 4 * action_size + 16)
 
 
 @dataclass(frozen=True)
@@ -211,6 +231,18 @@ class PolicyBatch:
         sizes = [self.weights[0].shape[1], *(w.shape[2] for w in self.weights)]
         weights = np.ascontiguousarray(np.concatenate(parts, axis=1), dtype=np.float64)
         return weights, np.asarray(sizes, dtype=np.int64)
+
+    def select(self, rows) -> PolicyBatch:
+        """The policy at position ``rows`` (an int: a batch of one) or the policies at positions ``rows``."""
+        return select_policy(self, rows) if isinstance(rows, (int, np.integer)) else select_policies(self, rows)
+
+    def begin(self, observations: torch.Tensor) -> None:
+        """Nothing to plan: an MLP acts on each observation alone (a movement primitive plans its episodes)."""
+        return None
+
+    def respond(self, observations: torch.Tensor, state: None = None) -> tuple[torch.Tensor, None]:
+        """(:meth:`act`, the unchanged state): the stepping interface every policy family shares."""
+        return self.act(observations), state
 
     def act(self, observations: torch.Tensor) -> torch.Tensor:
         """Deterministic actions.

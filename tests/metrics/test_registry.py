@@ -106,7 +106,7 @@ def test_the_default_registry_is_immutable_and_names_are_unique():
 
 
 def test_a_metric_declaration_is_checked():
-    with pytest.raises(ValueError, match="stage must be one of \\['metrics', 'diagnostics', 'sac', 'occupancy', 'learning_path'\\], got 'rwg'"):
+    with pytest.raises(ValueError, match="stage must be one of \\['metrics', 'diagnostics', 'sac', 'occupancy', 'learning_path', 'primitives'\\], got 'rwg'"):
         Metric("m", "M", "M", "", True, "x", "rwg", compute=best_mean)
     with pytest.raises(ValueError, match="Metric.name must be lower-case .* got 'Bad name'"):
         Metric("Bad name", "M", "M", "", True, "x", "metrics", compute=best_mean)
@@ -121,4 +121,5 @@ def test_every_default_metric_states_its_direction_family_stage_and_why():
     assert [m.name for m in DEFAULT_REGISTRY if m.primary] == ["pic", "poic"]
     assert {m.name for m in DEFAULT_REGISTRY if m.quantity} == {"pic", "pic_miller_madow", "pic_knn",
                                                                  "pic_minus_null"}
-    assert {m.stage for m in DEFAULT_REGISTRY} == {"metrics", "diagnostics", "sac", "occupancy", "learning_path"}
+    assert {m.stage for m in DEFAULT_REGISTRY} == {"metrics", "diagnostics", "sac", "occupancy", "learning_path",
+                                                   "primitives"}

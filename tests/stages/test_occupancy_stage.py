@@ -126,7 +126,7 @@ def test_with_sac_trained_every_task_gets_a_distance_and_the_verdict_judges_it(w
     assert f"W₂ to SAC's policy agrees with {agree} and contradicts {contradict} of the 3 known relations" in report
     table = pd.read_csv(index.parent / "tables" / "beyond_the_paper.csv")
     assert list(table.columns[3:]) == ["PIC", "POIC", "W₂ to SAC's policy", "learning-path PIC",
-                                       "learning-path POIC"] and len(table) == 3
+                                       "learning-path POIC", "PIC under DMPs", "POIC under DMPs"] and len(table) == 3
     assert (index.parent / "figures" / "learning_path.png").stat().st_size > 0
 
 

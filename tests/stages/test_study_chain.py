@@ -74,8 +74,9 @@ def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(smok
     artefact = run_verdict(cfg)
     verdict = pd.read_parquet(artefact.file("verdict.parquet"))
     study = study_from(cfg)
-    judged = [m.name for m in DEFAULT_REGISTRY if m.stage in ("metrics", "diagnostics")]  # SAC off: no trained actor
-    assert len(verdict) == len(judged) * len(study.relations) == 80
+    # SAC off: no trained actor; the movement-primitive family needs none
+    judged = [m.name for m in DEFAULT_REGISTRY if m.stage in ("metrics", "diagnostics", "primitives")]
+    assert len(verdict) == len(judged) * len(study.relations) == 100
     assert set(zip(verdict["metric"], verdict["easier"], verdict["harder"], strict=True)) == {
         (m, r.easier, r.harder) for m in judged for r in study.relations}
     # the report read the same artefact: its tidy verdict is the artefact's

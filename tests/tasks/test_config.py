@@ -11,7 +11,8 @@ import yaml
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.families import network_from_config
+from taskcomplexity.policies import PriorSpec
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.rewards import REWARD_KINDS, reward_kind
 from taskcomplexity.tasks.spec import REWARDS, ArmSpec, RewardSpec, arm_presets, make_task
@@ -115,9 +116,9 @@ def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compos
     assert [entry.id for entry, _ in pairs] == list(loaded.ids)
     for entry, request in pairs:
         assert request.backend == request.task.backends[0]  # backend=auto: the task's fastest
-        for group, cls in (("prior", PriorSpec), ("network", NetworkSpec)):
+        for group, read in (("prior", lambda node: build(PriorSpec, node, "prior")), ("network", network_from_config)):
             chosen = entry.selection.get(group, getattr(loaded, group) or {"prior": "normal", "network": "mlp32"}[group])
-            expected = build(cls, yaml.safe_load((CONF_DIR / group / f"{chosen}.yaml").read_text()), group)
+            expected = read(yaml.safe_load((CONF_DIR / group / f"{chosen}.yaml").read_text()))
             assert getattr(request, group) == expected
     for relation in loaded.relations:
         assert {relation.easier, relation.harder} <= set(loaded.ids)

@@ -26,8 +26,8 @@ log = logging.getLogger("rwg")
 @one_line_errors
 def run(cfg: DictConfig):
     """Compute or reuse the returns artefact of the composed task and sampler."""
-    refuse_unread_groups(user_overrides(), ("study", "metrics", "diagnostics", "occupancy", "learning_path", "sac",
-                                             "report"),
+    refuse_unread_groups(user_overrides(), ("study", "metrics", "diagnostics", "occupancy", "learning_path",
+                                             "primitives", "sac", "report"),
                          "the RWG stage of one task", "pipelines/study.py")
     request = rwg_request_from_config(cfg)
     cache = cache_from_config(cfg)

@@ -25,7 +25,8 @@ Functions by stage:
 - ``occupancy``: ``compute(sample) -> float`` on an
   :class:`~taskcomplexity.metrics.occupancy.OccupancySample` (K policies' distances, or a batch);
 - ``learning_path``: ``compute(path) -> float`` on a
-  :class:`~taskcomplexity.metrics.learning_path.LearningPath` (one return matrix per snapshot).
+  :class:`~taskcomplexity.metrics.learning_path.LearningPath` (one return matrix per snapshot);
+- ``primitives``: as ``metrics``, on the movement-primitive family's return matrix.
 """
 
 from __future__ import annotations
@@ -40,10 +41,11 @@ import numpy as np
 BEYOND = "beyond the paper"
 """The family of the metrics the paper's conclusion proposes (the report answers its open question with them)."""
 
-STAGES = ("metrics", "diagnostics", "sac", "occupancy", "learning_path")
+STAGES = ("metrics", "diagnostics", "sac", "occupancy", "learning_path", "primitives")
 """Stages that estimate metrics: the first two on return matrices, ``sac`` on learning curves,
 ``occupancy`` on the occupancy distances of sampled policies to SAC's trained actor,
-``learning_path`` on the return matrices of policies around SAC's actor along training."""
+``learning_path`` on the return matrices of policies around SAC's actor along training,
+``primitives`` on the return matrix of the movement-primitive family (``network=dmp``)."""
 
 
 @dataclass(frozen=True)
@@ -279,6 +281,19 @@ DEFAULT_REGISTRY = Registry((
     Metric("path_poic", "learning-path POIC", "path POIC", "nats", True, BEYOND, "learning_path",
            compute=lambda p: p.poic, bootstrapped=True, batched=True, draws=lambda p: p.draws("poic"),
            why="the paper's second proposal, for POIC: the optimality information around SAC's learning path"),
+    Metric("dmp_pic", "PIC under DMPs", "DMP PIC", "nats", True, BEYOND, "primitives",
+           compute=lambda s: s.pic.pic, bootstrapped=True, batched=True,
+           draws=lambda s: s.bootstrap["pic"].to_numpy(),
+           details=(Detail("dmp_h_r", "H(R) under DMPs", "nats", lambda s: s.pic.h_r, shown=False),
+                    Detail("dmp_h_r_given_theta", "H(R|Θ) under DMPs", "nats", lambda s: s.pic.h_r_given_theta,
+                           shown=False)),
+           why="the paper's first proposal: PIC over a policy family with an inductive bias for reaching (a "
+               "movement primitive per joint, aimed at the target), whose parameters shape how the arm gets there "
+               "rather than whether it moves sensibly at all"),
+    Metric("dmp_poic", "POIC under DMPs", "DMP POIC", "nats", True, BEYOND, "primitives",
+           compute=lambda s: s.poic.poic, bootstrapped=True, batched=True,
+           draws=lambda s: s.bootstrap["poic"].to_numpy(),
+           why="the paper's first proposal, for POIC: the optimality information under movement primitives"),
     Metric("sac_final", "SAC final", "SAC final", "normalised return", True, "SAC", "sac",
            compute=_sac("sac", "final_normalised"), why=_SAC_WHY),
     Metric("sac_auc", "SAC AUC", "SAC AUC", "normalised return", True, "SAC", "sac",

@@ -8,18 +8,11 @@ from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import joined
 
 
-def describe_network(network) -> str:
-    """E.g. 'MLP 64×64, tanh hidden, linear output, without biases' (a NetworkSpec in words)."""
-    hidden = "×".join(map(str, network.hidden)) or "linear (no hidden layer)"
-    bias = "a constant input 1.0 as bias" if network.input_bias else ("with" if network.bias else "without") + " biases"
-    return f"MLP {hidden}, {network.activation} hidden, {network.output} output, {bias}"
-
-
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
     """(what, value) pairs of the methods box."""
     requests = [data.results[t].request for t in data.tasks]
     metrics_config = data.results[data.tasks[0]].metrics.manifest.get("config", {})
-    network = joined(describe_network(r.network) for r in requests)
+    network = "; ".join(dict.fromkeys(r.network.describe() for r in requests))  # descriptions hold commas
     prior = joined(r.prior.kind + (f" (variance {r.prior.variance:g})" if r.prior.kind == "normal" else "")
                    for r in requests)
     steps = joined(getattr(r.task, "max_steps", None) or "the env's own limit of" for r in requests)

@@ -16,7 +16,9 @@ import torch
 
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec, sample_policies, select_policy
+from taskcomplexity.families import sample_family
+from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec
+from taskcomplexity.primitive_policies import PrimitiveBatch, PrimitiveSpec
 from taskcomplexity.progress import Progress, progress_bar
 from taskcomplexity.rwg.gym_backend import ENVIRONMENTS_IN_FLIGHT, GymRollout
 from taskcomplexity.seeding import episode_uniforms
@@ -31,13 +33,25 @@ AUTO = "auto"
 """``backend=auto``: the task's first backend."""
 
 
-def resolve_backend(task: Task, backend: str) -> str:
-    """``auto`` → the task's fastest exact backend; refuse a backend the task does not have."""
+PRIMITIVE_BACKENDS = ("batched", "pybullet")
+"""The backends that run the movement-primitive family (``network=dmp``): the reaching arms' own."""
+
+
+def resolve_backend(task: Task, backend: str, network: NetworkSpec | PrimitiveSpec | None = None) -> str:
+    """``auto`` → the task's fastest exact backend (for ``network``'s family); refuse one it does not have."""
+    allowed = task.backends
+    if isinstance(network, PrimitiveSpec):
+        allowed = tuple(b for b in allowed if b in PRIMITIVE_BACKENDS)
+        if not allowed:
+            raise ConfigError(f"network.family={network.family} is not available for task {task.task_id}: it "
+                              f"plans joint-space movements of a reaching arm (allowed: an arm=… task, or an "
+                              f"MLP network)")
     if backend == AUTO:
-        return task.backends[0]
-    if backend not in task.backends:
-        raise ConfigError(f"backend={backend} is not available for task {task.task_id} "
-                          f"(allowed: {', '.join([AUTO, *task.backends])})")
+        return allowed[0]
+    if backend not in allowed:
+        raise ConfigError(f"backend={backend} is not available for task {task.task_id}"
+                          + (f" with network.family={network.family}" if isinstance(network, PrimitiveSpec) else "")
+                          + f" (allowed: {', '.join([AUTO, *allowed])})")
     return backend
 CONTACTS = tuple(CONTACT_MODES)
 
@@ -159,7 +173,7 @@ def initial_states(task: TaskSpec, seed: int, policies: np.ndarray, episodes: in
     return mechanics.initial_state(task.arm, episode_uniforms(seed, n, e))
 
 
-def chunk_size(task: Task, network: NetworkSpec, settings: RWGSettings, backend: str) -> int:
+def chunk_size(task: Task, network: NetworkSpec | PrimitiveSpec, settings: RWGSettings, backend: str) -> int:
     """Policies per chunk."""
     if settings.chunk_policies:
         return settings.chunk_policies
@@ -167,13 +181,13 @@ def chunk_size(task: Task, network: NetworkSpec, settings: RWGSettings, backend:
         return 16
     if backend == "gym":
         return max(1, ENVIRONMENTS_IN_FLIGHT // min(settings.episodes, ENVIRONMENTS_IN_FLIGHT))
-    width = max(network.hidden, default=0) + task.observation_size + 4 * task.action_size + 16
-    per_env = 8 * 4 * width  # float64, activations and temporaries
+    per_env = 8 * network.working_floats(task.observation_size, task.action_size, task.max_steps)  # float64
     envs = settings.chunk_memory_mb * 2**20 // per_env
     return max(1, min(envs // settings.episodes, 2048))
 
 
-def chunks(task: Task, network: NetworkSpec, settings: RWGSettings, backend: str) -> list[tuple[int, int]]:
+def chunks(task: Task, network: NetworkSpec | PrimitiveSpec, settings: RWGSettings,
+           backend: str) -> list[tuple[int, int]]:
     """The [start, stop) policy ranges of this shard's chunks."""
     start, stop = settings.shard_range()
     size = chunk_size(task, network, settings, backend)
@@ -182,7 +196,7 @@ def chunks(task: Task, network: NetworkSpec, settings: RWGSettings, backend: str
 
 def simulate_chunk(
     task: Task,
-    network: NetworkSpec,
+    network: NetworkSpec | PrimitiveSpec,
     prior: PriorSpec,
     settings: RWGSettings,
     start: int,
@@ -196,9 +210,9 @@ def simulate_chunk(
 
     ``rollout`` is the environment pool of the ``gym`` backend (made here, and closed, when None).
     """
-    backend = resolve_backend(task, backend)
+    backend = resolve_backend(task, backend, network)
     indices = np.arange(start, stop)
-    policies = sample_policies(network, prior, task.observation_size, task.action_size, settings.seed, indices)
+    policies = sample_family(task, network, prior, settings.seed, indices)
     if backend == "kernel":  # issue 14: classic-control kernels (rwg/kernel_backend.py)
         from taskcomplexity.rwg.kernel_backend import run_kernel
 
@@ -219,49 +233,58 @@ def simulate_chunk(
 
 
 def _simulate_batched(
-    task, policies: PolicyBatch, joint_angles, target, contacts: str = "pybullet", progress: bool = False,
-    *, fused: bool = True,
+    task, policies: PolicyBatch | PrimitiveBatch, joint_angles, target, contacts: str = "pybullet",
+    progress: bool = False, *, fused: bool = True,
 ) -> ReturnChunk:
     """Every episode of the chunk on the batched backend.
 
-    ``fused``: each policy's episodes run to their end in one kernel (forward pass and step per
-    environment, :meth:`BatchedReaching.rollout`); otherwise step by step, one batched forward pass
-    (:meth:`PolicyBatch.act`) and one :meth:`BatchedReaching.step` per environment step — the
-    reference the fused rollout is tested and benchmarked against.
+    ``fused`` (MLPs only): each policy's episodes run to their end in one kernel (forward pass and step
+    per environment, :meth:`BatchedReaching.rollout`); otherwise step by step, one batched
+    :meth:`respond` of the policies and one :meth:`BatchedReaching.step` per environment step — the
+    reference the fused rollout is tested and benchmarked against, and the movement primitives' path.
     """
     from taskcomplexity.tasks.batched import BatchedReaching
 
     n_pol, n_ep = joint_angles.shape[:2]
     env = BatchedReaching(task, n_pol * n_ep, contacts)
     obs = env.reset(torch.from_numpy(joint_angles.reshape(n_pol * n_ep, -1)), torch.from_numpy(target.reshape(-1, 2)))
-    if fused:
+    planned: dict[int, object] = {}  # flat environment → the policy's state where it was handed over
+    if fused and isinstance(policies, PolicyBatch):
         env.rollout(*policies.packed(), activation=policies.activation, output=policies.output,
                     bias=policies.biases is not None, input_bias=policies.input_bias)
     else:
         with torch.no_grad(), policies:  # closing the batch ends its forward-pass threads
+            state = policies.begin(obs.view(n_pol, n_ep, -1))
             for _ in range(task.max_steps):
                 if not env.active.any():
                     break
-                action = policies.act(obs.view(n_pol, n_ep, -1)).reshape(n_pol * n_ep, -1)
-                obs, _, _ = env.step(action)
+                before, handed = state, env.handoff.numpy().copy()
+                action, state = policies.respond(obs.view(n_pol, n_ep, -1), state)
+                obs, _, _ = env.step(action.reshape(n_pol * n_ep, -1))
+                if before is not None:
+                    for flat in np.flatnonzero(env.handoff.numpy() & ~handed):
+                        planned[int(flat)] = before.row(*divmod(int(flat), n_ep))
     returns = env.returns.numpy().reshape(n_pol, n_ep).copy()
     steps = env.steps.numpy().reshape(n_pol, n_ep).copy()
     success = env.success.numpy().reshape(n_pol, n_ep).copy()
     handoff = env.handoff.numpy().reshape(n_pol, n_ep)
     if handoff.any():
-        _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress)
+        _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress, planned)
     return ReturnChunk(
         policies.indices.copy(), returns, steps, success, int(handoff.sum()), int(env.contact.numpy().sum())
     )
 
 
-def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress: bool = False) -> None:
-    """Continue handed-over episodes on the PyBullet reference, from the state where they stopped."""
+def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, progress: bool = False,
+                        planned: dict | None = None) -> None:
+    """Continue handed-over episodes on the PyBullet reference, from the state where they stopped
+    (``planned``: flat environment → the policy's own state there, for families that keep one)."""
     n_ep = handoff.shape[1]
+    planned = planned or {}
     jobs = []
     for p, e in zip(*np.nonzero(handoff), strict=True):
         flat = p * n_ep + e
-        one = select_policy(policies, int(p))
+        one = policies.select(int(p))
         jobs.append(
             (
                 int(p),
@@ -271,6 +294,7 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, p
                 env.joint_velocities[flat].numpy().copy(),
                 env.target[flat].numpy().copy(),
                 task.max_steps - int(steps[p, e]),
+                planned.get(int(flat)),
             )
         )
     from tqdm.auto import tqdm
@@ -291,16 +315,20 @@ def _finish_on_pybullet(task, policies, env, handoff, returns, steps, success, p
 
 def _continue_episode(env, job) -> tuple[float, int, bool]:
     """Finish one handed-over episode on the reference ``env`` from the state where it stopped."""
-    _, _, policy, joint_angles, joint_velocities, target, max_steps = job  # the whole policy: its activation too
+    _, _, policy, joint_angles, joint_velocities, target, max_steps, state = job  # the whole policy
     obs, _ = env.reset(options={"joint_angles": joint_angles, "joint_velocities": joint_velocities, "target": target})
-    return _rollout(env, policy, obs, max_steps)
+    return _rollout(env, policy, obs, max_steps, state)
 
 
-def _rollout(env, policy: PolicyBatch, obs, max_steps: int) -> tuple[float, int, bool]:
+def _rollout(env, policy: PolicyBatch | PrimitiveBatch, obs, max_steps: int, state=None) -> tuple[float, int, bool]:
+    """One episode of a policy of one from ``obs`` (``state``: the policy's own, mid-episode; None: a new one)."""
     total, n, ok = 0.0, 0, False
     with torch.no_grad():
+        if state is None:
+            state = policy.begin(torch.from_numpy(obs).view(1, 1, -1))
         for _ in range(max_steps):
-            action = policy.act(torch.from_numpy(obs).view(1, 1, -1))[0, 0].numpy()
+            action, state = policy.respond(torch.from_numpy(obs).view(1, 1, -1), state)
+            action = action[0, 0].numpy()
             obs, reward, terminated, _, info = env.step(action)
             total += reward
             n += 1
@@ -310,7 +338,7 @@ def _rollout(env, policy: PolicyBatch, obs, max_steps: int) -> tuple[float, int,
     return total, n, ok
 
 
-def _simulate_pybullet(task, policies: PolicyBatch, joint_angles, target) -> ReturnChunk:
+def _simulate_pybullet(task, policies: PolicyBatch | PrimitiveBatch, joint_angles, target) -> ReturnChunk:
     from taskcomplexity.tasks.pybullet_env import ReachingEnv
 
     n_pol, n_ep = joint_angles.shape[:2]
@@ -320,7 +348,7 @@ def _simulate_pybullet(task, policies: PolicyBatch, joint_angles, target) -> Ret
     env = ReachingEnv(task=task)
     try:
         for p in range(n_pol):
-            policy = select_policy(policies, p)
+            policy = policies.select(p)
             for e in range(n_ep):
                 obs, _ = env.reset(options={"joint_angles": joint_angles[p, e], "target": target[p, e]})
                 returns[p, e], steps[p, e], success[p, e] = _rollout(env, policy, obs, task.max_steps)
@@ -331,7 +359,7 @@ def _simulate_pybullet(task, policies: PolicyBatch, joint_angles, target) -> Ret
 
 def run_rwg(
     task: Task,
-    network: NetworkSpec,
+    network: NetworkSpec | PrimitiveSpec,
     prior: PriorSpec,
     settings: RWGSettings,
     backend: str = "batched",
@@ -353,7 +381,7 @@ def run_rwg(
         (:mod:`taskcomplexity.progress`).
     """
     settings.validate()
-    backend = resolve_backend(task, backend)
+    backend = resolve_backend(task, backend, network)
     completed = dict(completed or {})
     ranges = chunks(task, network, settings, backend)
     total = sum(b - a for a, b in ranges) * settings.episodes

@@ -19,6 +19,7 @@ from taskcomplexity.stages.cache import Artefact
 from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, study_diagnostics
 from taskcomplexity.stages.learning_path_stage import LearningPathSettings, study_learning_paths
 from taskcomplexity.stages.occupancy_stage import OccupancySettings, study_occupancy
+from taskcomplexity.stages.primitives_stage import PrimitivesSettings, study_primitives
 from taskcomplexity.stages.stage_log import StageLog, outcome
 from taskcomplexity.stages.task_artefacts import TaskMetrics, study_metrics
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
@@ -90,7 +91,8 @@ class StudyArtefacts:
     sac_curves : pandas.DataFrame or None
         Tidy SAC curves (None: SAC off, or a study of variants).
     further : dict of stage to dict of task id to Artefact
-        The artefacts of the stages built on SAC's trained actor (``occupancy``, ``learning_path``).
+        The artefacts of the stages beyond the paper: those built on SAC's trained actor (``occupancy``,
+        ``learning_path``) and the movement-primitive family's (``primitives``).
     verdict : Artefact
         The verdict stage's artefact.
     alpha : float
@@ -119,6 +121,10 @@ def study_artefacts(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Study
                                     force=force, progress=True)
     sac = None if study.kind == "variants" else _sac_curves(cfg, cache, results)
     further = {} if sac is None else _further_stages(cfg, cache, results, sac, settings, registry, force)
+    if study.kind != "variants":
+        further["primitives"] = study_primitives(cache, {r.task_id: r.request for r in results}, settings,
+                                                 PrimitivesSettings.from_config(cfg.primitives), registry=registry,
+                                                 force=force, progress=True)
     stage = StageLog("verdict")
     with stage.task(study.name) as record:
         record.artefact, record.hit = run_verdict_stage(

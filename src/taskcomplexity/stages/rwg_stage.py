@@ -22,6 +22,7 @@ from filelock import FileLock
 from taskcomplexity.config import result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.primitive_policies import PrimitiveSpec
 from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
@@ -40,7 +41,7 @@ class RWGRequest:
     """Everything that determines a return matrix (plus how to split the work)."""
 
     task: Task
-    network: NetworkSpec
+    network: NetworkSpec | PrimitiveSpec
     prior: PriorSpec
     settings: RWGSettings
     backend: str = "batched"
@@ -77,10 +78,8 @@ class RWGRequest:
     @property
     def label(self) -> str:
         s = self.settings
-        hidden = "x".join(map(str, self.network.hidden))
-        bias = "+b" if self.network.bias else ""
         contacts = " contact-model" if self.models_contacts else ""
-        return (f"{self.task.task_id} mlp{hidden}{bias} {self.prior.kind} N={s.policies} M={s.episodes} "
+        return (f"{self.task.task_id} {self.network.tag} {self.prior.kind} N={s.policies} M={s.episodes} "
                 f"seed={s.seed}{contacts}")
 
 

@@ -7,6 +7,7 @@ metrics                   ``metrics.parquet`` (whole sample)      ``batches.parq
 diagnostics               ``estimators.parquet`` (whole sample)   its ``batches.parquet``
 occupancy                 ``occupancy.parquet`` (K policies)      its ``batches.parquet``
 learning_path             ``learning_path.parquet`` (path mean)   its ``batches.parquet``
+primitives                ``primitives.parquet`` (DMP family)     its ``batches.parquet``
 sac                       mean over seeds                         one value per seed
 ========================  ======================================  ==================================
 """
@@ -24,7 +25,8 @@ from taskcomplexity.metrics.sac import seed_summary
 RETURN_MATRIX_STAGES = {"metrics": ("metrics.parquet", "batches.parquet"),
                         "diagnostics": ("estimators.parquet", "batches.parquet"),
                         "occupancy": ("occupancy.parquet", "batches.parquet"),
-                        "learning_path": ("learning_path.parquet", "batches.parquet")}
+                        "learning_path": ("learning_path.parquet", "batches.parquet"),
+                        "primitives": ("primitives.parquet", "batches.parquet")}
 """Per stage estimating on policy samples (return matrices; the occupancy distances of sampled
 policies): (file of the point values, file of the per-batch samples)."""
 
