@@ -21,6 +21,7 @@ pessimistic. Usage: ``.venv/bin/python bench/bench_sac.py [--steps 2000] [--no-c
 from __future__ import annotations
 
 import argparse
+import math
 import multiprocessing
 import os
 import sys
@@ -60,7 +61,7 @@ def measure(seeds: tuple[int, ...], steps: int) -> dict[str, float]:
     settings = SACSettings(
         total_steps=WARMUP + steps,
         warmup_steps=WARMUP,
-        eval_every=1000 if steps % 1000 == 0 else steps,
+        eval_every=math.gcd(WARMUP, steps),  # an evaluation at the end of the warm-up and of the run
         eval_episodes=10,
         checkpoint_every=100_000,
         seeds=seeds,

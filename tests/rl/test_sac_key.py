@@ -13,10 +13,12 @@ CHANGED = {  # a valid different value of every field
     "enabled": False, "hidden_sizes": (64, 64), "actor_lr": 3e-4, "critic_lr": 3e-4, "gamma": 0.9, "alpha": 0.1,
     "tau": 0.01, "loss_function": "smooth_l1", "batch_size": 32, "buffer_size": 5000, "updates_per_step": 2,
     "collect_steps": 20, "warmup_steps": 200, "eval_every": 200, "eval_episodes": 3, "total_steps": 4000,
-    "seeds": (0, 1), "train_seeds_together": False, "her": True, "her_ratio": 0.5, "her_strategy": "final",
+    "budget_fraction": 0.5, "seeds": (0, 1), "train_seeds_together": False, "her": True, "her_ratio": 0.5, "her_strategy": "final",
     "checkpoint_every": 400, "num_threads": 2,
 }
-NOT_A_RESULT = {"enabled"}  # read by the study only: it decides whether SAC runs, not what it computes
+# enabled: read by the study only, it decides whether SAC runs, not what it computes; budget_fraction:
+# with_budget resolves it into total_steps, which is hashed (test_settings.py checks the resolution).
+NOT_A_RESULT = {"enabled", "budget_fraction"}
 
 
 def key(settings: SACSettings) -> str:

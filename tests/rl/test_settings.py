@@ -49,6 +49,43 @@ def test_a_run_budget_is_total_steps_when_set_else_the_study_entry():
     assert with_budget(SACSettings(total_steps=300), None, task_id="pend").total_steps == 300
 
 
+def test_a_budget_fraction_scales_every_study_budget_to_a_multiple_of_collect_steps():
+    fifth = SACSettings(budget_fraction=0.2)
+    resolved = {steps: with_budget(fifth, steps, task_id="t") for steps in (50_000, 100_000, 200_000)}
+    assert {steps: s.total_steps for steps, s in resolved.items()} == {50_000: 10_000, 100_000: 20_000,
+                                                                        200_000: 40_000}
+    for settings in resolved.values():  # resolved settings are complete: they validate and scale no further
+        assert settings.budget_fraction == 1.0
+        assert settings.validate() == settings
+    odd = SACSettings(budget_fraction=0.333)
+    assert with_budget(odd, 50_000, task_id="t").total_steps == 16_650  # 0.333 × 50 000 = 16 650, 1 665 rounds
+    assert with_budget(SACSettings(budget_fraction=1e-6), 50_000, task_id="t").total_steps == 10  # one round
+    # the resolved run is the run with that total_steps: same settings, so the same SAC key
+    assert with_budget(fifth, 50_000, task_id="t") == SACSettings(total_steps=10_000)
+
+
+def test_a_budget_fraction_beside_total_steps_or_out_of_range_is_refused_in_one_line():
+    with pytest.raises(ConfigError) as err:
+        SACSettings(total_steps=3000, budget_fraction=0.5).validate()
+    message = str(err.value)
+    assert "sac.budget_fraction=0.5" in message and "sac.total_steps=3000" in message and "\n" not in message
+    for bad in (0, -0.2, float("nan"), float("inf"), True):
+        with pytest.raises(ConfigError, match=r"sac\.budget_fraction must be a finite number > 0"):
+            SACSettings(budget_fraction=bad).validate()
+
+
+def test_experiment_beyond_is_the_published_study_with_a_fifth_of_the_sac_budgets(compose_config):
+    beyond, published = compose_config("experiment=beyond"), compose_config("experiment=published")
+    for group in ("rwg", "metrics", "primitives", "occupancy", "learning_path"):
+        assert beyond[group] == published[group], group
+    settings = build(SACSettings, beyond.sac, "sac").validate()
+    assert settings.enabled and settings.seeds == (0, 1) and settings.checkpoint_every == 2000
+    budgets = {entry.id: with_budget(settings, entry.sac_steps, task_id=entry.id).total_steps
+               for entry in study_from_config(beyond.study).tasks}
+    assert budgets == {task: steps // 5 for task, steps in SPEC_BUDGETS.items()}
+    assert beyond.tag == "beyond"
+
+
 def test_a_task_without_a_budget_is_refused_naming_sac_total_steps():
     with pytest.raises(ConfigError, match=r"no SAC budget for task pend: set sac\.total_steps") as err:
         with_budget(SACSettings(), None, task_id="pend")

@@ -55,6 +55,11 @@ class SACSettings:
     total_steps : int or None
         The run's budget, environment steps per seed. None: each study task's ``sac_steps`` (the study
         file holds the budgets; :func:`with_budget` resolves them); a run needs one or the other.
+    budget_fraction : float
+        Scales the study's budgets: a task's run is ``budget_fraction × sac_steps`` steps per seed,
+        rounded to a multiple of ``collect_steps`` (e.g. 0.2 in ``experiment=beyond``). Not hashed
+        itself: the resolved ``total_steps`` is. Refused together with ``total_steps``, which it would
+        not change.
     seeds : tuple of int
         The seeds of the protocol.
     train_seeds_together : bool
@@ -89,6 +94,7 @@ class SACSettings:
     eval_every: int = 1000
     eval_episodes: int = 10
     total_steps: int | None = None
+    budget_fraction: float = setting(1.0, result=False)
     seeds: tuple[int, ...] = (0, 1, 2, 3, 4)
     train_seeds_together: bool = True
     her: bool = False
@@ -134,8 +140,16 @@ class SACSettings:
                 raise ConfigError(
                     f"{where}.{name} must be a multiple of {where}.collect_steps={self.collect_steps}, got {value}"
                 )
+        _check(where, "budget_fraction", self.budget_fraction, "a finite number > 0",
+               lambda v: math.isfinite(v) and v > 0)
         if self.total_steps is not None:
             _check_budget(f"{where}.total_steps", self.total_steps, self.collect_steps, where)
+            if self.budget_fraction != 1:
+                raise ConfigError(
+                    f"{where}.budget_fraction={self.budget_fraction} scales the study's budgets (sac_steps), but "
+                    f"{where}.total_steps={self.total_steps} replaces them (allowed: one of the two, or "
+                    f"{where}.budget_fraction=1)"
+                )
         return self
 
 
@@ -152,7 +166,8 @@ def _check_budget(key: str, steps, collect_steps: int, where: str) -> None:
 
 
 def with_budget(settings: SACSettings, sac_steps: int | None, *, task_id: str, where: str = "sac") -> SACSettings:
-    """``settings`` with the run's budget resolved: ``total_steps`` when set, else the study's ``sac_steps``.
+    """``settings`` with the run's budget resolved: ``total_steps`` when set, else the study's ``sac_steps``
+    scaled by ``budget_fraction`` (rounded to a multiple of ``collect_steps``, at least one round).
 
     Parameters
     ----------
@@ -174,7 +189,8 @@ def with_budget(settings: SACSettings, sac_steps: int | None, *, task_id: str, w
             f"no SAC budget for task {task_id}: set {where}.total_steps or the study entry's sac_steps"
         )
     _check_budget(f"study.tasks[{task_id}].sac_steps", sac_steps, settings.collect_steps, where)
-    return replace(settings, total_steps=sac_steps)
+    rounds = max(1, round(sac_steps * settings.budget_fraction / settings.collect_steps))
+    return replace(settings, total_steps=rounds * settings.collect_steps, budget_fraction=1.0)
 
 
 def has_goal_view(task) -> bool:
