@@ -56,8 +56,8 @@ lint: $(STAMP) ## ruff
 bench: $(STAMP) ## benchmarks: figures and ratios measured side by side
 	$(PY) bench/run.py
 
-fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/fidelity.md
-	$(PY) bench/fidelity.py
+fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/fidelity.md (ARGS=--scan: + the torque scan)
+	$(PY) bench/fidelity.py $(ARGS)
 
 calibrate-contacts: $(STAMP) ## measure the obstacle contact model's one-sweep rates on PyBullet, beside the constants (minutes)
 	$(PY) bench/calibrate_contacts.py

@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/fidelity.py                       # experiment=published (reuses `make run`'s cache)
     .venv/bin/python bench/fidelity.py rwg.policies=10200    # any Hydra override of the study
+    .venv/bin/python bench/fidelity.py --scan                # + the torque-scale scan (about 1 min a point)
 
 Computes (or reuses, from the cache under ``paths.outputs``) the RWG and metrics artefacts of every task
 of the study and prints, per task, PIC and POIC with their bootstrap mean ± sd, H(R) and H(R|Θ); for
@@ -9,6 +10,9 @@ the cells whose published value is known (``PUBLISHED``), the distance of our bo
 published standard deviations. Then, for those cells, the probes that decide where an offset comes from
 (docs/fidelity.md): the pooled returns' range, tails and ties, and H(R), H(R|Θ) and PIC again with the
 most extreme returns clipped, so that the bin width no longer depends on them.
+``--scan`` adds, for the 1-link L = 1.0 dense cell, PIC at torque scales within ±1 % of the spec's 30 N·m
+(same policies, same reset states, so the differences are the mechanics' alone): how far a change in the
+fourth significant digit of the arm's impulse moves the cell (docs/fidelity.md).
 At the published scale a cold run takes as long as `make run`; not part of CI.
 """
 
@@ -19,13 +23,14 @@ import os
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 import argparse
+import dataclasses
 
 import numpy as np
 from hydra import compose, initialize_config_dir
 
 from taskcomplexity.cli import CONF_DIR, study_plan
 from taskcomplexity.metrics import pic
-from taskcomplexity.stages.rwg_stage import load_returns
+from taskcomplexity.stages.rwg_stage import load_returns, run_rwg_stage
 from taskcomplexity.stages.task_artefacts import study_metrics
 
 PUBLISHED = {
@@ -34,6 +39,9 @@ PUBLISHED = {
     "one_link_1m0-dense": {"pic": (4.005, 0.0085), "h_r": 10.1425, "h_r_given_theta": 6.1373},
     "two_link_obstacle-dense": {"pic": (3.671, 0.0143)},
 }
+SCAN_CELL = "one_link_1m0-dense"
+SCAN_CHANGES = (-1e-2, -3e-3, -1e-3, -3e-4, -1e-4, 0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2)
+"""Relative changes of the torque scale that ``--scan`` applies to ``SCAN_CELL``'s arm."""
 CLIP_QUANTILES = (1e-5, 1 - 1e-5)
 """The probe's clipping: the pooled returns below/above these quantiles are set to them."""
 
@@ -59,9 +67,27 @@ def probe(returns: np.ndarray, bins: int) -> str:
     return "\n".join(lines)
 
 
+def torque_scan(cache, request, bins: int, published: tuple[float, float]) -> None:
+    """PIC of ``request``'s task with its torque scale changed by each of :data:`SCAN_CHANGES` (cached RWG)."""
+    arm = request.task.arm
+    mean, sd = published
+    print(f"\n{request.label}: torque scale × (1 + ε), the same {request.settings.policies:,} policies × "
+          f"{request.settings.episodes} reset states (point estimates; off in published sd)")
+    print(f"{'ε':>9}{'torque (N·m)':>15}{'H(R)':>9}{'H(R|Θ)':>9}{'PIC':>9}{'off':>7}")
+    for change in SCAN_CHANGES:
+        scaled = dataclasses.replace(arm, torque_scale=tuple(t * (1 + change) for t in arm.torque_scale))
+        changed = dataclasses.replace(request, task=dataclasses.replace(request.task, arm=scaled))
+        artefact, _ = run_rwg_stage(cache, changed, progress=True)
+        result = pic(load_returns(artefact), bins=bins)
+        print(f"{change:>+9.0e}{scaled.torque_scale[0]:>15.4f}{result.h_r:9.4f}{result.h_r_given_theta:9.4f}"
+              f"{result.pic:9.4f}{(result.pic - mean) / sd:+7.1f}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("overrides", nargs="*", help="Hydra overrides (default: experiment=published)")
+    parser.add_argument("--scan", action="store_true",
+                        help=f"also scan {SCAN_CELL}'s torque scale within ±1 %% (one RWG run per point)")
     args = parser.parse_args()
     overrides = args.overrides
     if not any(o.startswith("experiment=") for o in overrides):
@@ -94,6 +120,11 @@ def main() -> None:
         print(f"\n{result.task_id}: published " + ", ".join(
             f"{k} {v[0]:.4f} ± {v[1]:.4f}" if isinstance(v, tuple) else f"{k} {v:.4f}" for k, v in published.items()))
         print(probe(load_returns(result.rwg), settings.bins))
+    if args.scan:
+        cells = {e.id: request for e, request in zip(plan.entries, plan.requests, strict=True)}
+        if SCAN_CELL not in cells:
+            raise SystemExit(f"--scan: study {study.name} has no task {SCAN_CELL}")
+        torque_scan(plan.cache, cells[SCAN_CELL], settings.bins, PUBLISHED[SCAN_CELL]["pic"])
 
 
 if __name__ == "__main__":
