@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 import torch
 
@@ -16,7 +17,10 @@ from taskcomplexity.rl.factories import make_actor_critic
 from taskcomplexity.rl.snapshots import ActorSnapshots, actor_layers
 from taskcomplexity.rwg import RWGSettings, simulate_chunk
 from taskcomplexity.rwg.given_policies import run_policies
-from taskcomplexity.stages.learning_path_stage import LearningPathSettings, chosen_snapshots
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.learning_path_stage import LearningPathSettings, chosen_snapshots, run_learning_path_stage
+from taskcomplexity.stages.metrics_stage import MetricsSettings
+from taskcomplexity.stages.rwg_stage import RWGRequest
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
 
@@ -106,6 +110,33 @@ def test_snapshot_choice_and_bad_settings():
     assert chosen_snapshots(1, 3) == [0]
     for key, value, match in (("sigma", -1.0, "learning_path.sigma must be a finite number >= 0, got -1.0"),
                               ("policies", 3, "learning_path.policies must be at least 2 × learning_path.batches"),
-                              ("every", 0, "learning_path.every must be an integer >= 1, got 0")):
+                              ("every", 0, "learning_path.every must be an integer >= 1, got 0"),
+                              ("bins", 1, "learning_path.bins must be an integer >= 2 or null .metrics.bins., got 1")):
         with pytest.raises(ConfigError, match=match):
             dataclasses.replace(LearningPathSettings(), **{key: value}).validate()
+
+
+def test_the_path_estimates_at_its_own_bins_not_at_the_studys(tmp_path):
+    """N × M returns per snapshot at the study's B = 10⁵ put every return in a bin of its own, so PIC_k is
+    about ln(N·M) − ln M = ln N (less only by tied returns) whatever the policies do; ``learning_path.bins`` gives the path its own B."""
+    snapshots = _snapshots(ARM, seeds=(0,), count=2)
+    snapshots.save(tmp_path / "actors.npz")
+    request = RWGRequest(ARM, NetworkSpec(hidden=(16, 16)), PriorSpec(), RWGSettings(policies=20, episodes=6))
+    metrics = MetricsSettings(bins=100_000, resamples=20)
+    cache = Cache(tmp_path / "cache")
+
+    def path_of(settings):
+        artefact, _ = run_learning_path_stage(cache, request, "sac-key", tmp_path / "actors.npz", settings, metrics)
+        return artefact, pd.read_parquet(artefact.file("path.parquet"))
+
+    study_b = LearningPathSettings(policies=20, episodes=6, batches=2, sigma=1.0)
+    own_b = dataclasses.replace(study_b, bins=12)
+    saturated, curve = path_of(study_b)
+    assert (curve["pic"] <= np.log(20) + 1e-12).all() and (curve["pic"] > np.log(20) - 0.1).all()  # ~ceiling
+    artefact, curve = path_of(own_b)
+    assert artefact.key != saturated.key
+    for k, pic in enumerate(curve["pic"]):
+        policies = snapshots.around(k, sigma=1.0, seed=0, indices=np.arange(20))
+        returns = run_policies(ARM, policies, seed=0, episodes=6, backend="batched").returns
+        assert pic == pytest.approx(Sample(returns, Estimation(bins=12, resamples=20)).pic.pic, rel=1e-12)
+        assert pic < np.log(20) - 0.5

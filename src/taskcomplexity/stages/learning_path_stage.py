@@ -4,7 +4,9 @@ At every chosen snapshot θ_k of the trained SAC actor (``actors.npz`` of the SA
 and every checkpoint), N policies θₙ = θ_k + σεₙ run M episodes each on the task's RWG backend, and
 every registry metric of stage ``learning_path`` is estimated on the K return matrices
 (:class:`~taskcomplexity.metrics.learning_path.LearningPath`), with the metrics stage's estimator
-settings (bins, POIC search, bootstrap).
+settings (POIC search, bootstrap) and its B unless ``learning_path.bins`` sets one: K snapshots × N × M
+returns are far fewer than the study's, and at the study's B every return has a bin of its own, so PIC_k
+sits at its ceiling ln N whatever the policies do.
 
 Outputs under ``<cache>/learning_path/<key>/``:
 
@@ -19,6 +21,7 @@ settings, the estimator settings and the registry's signature of the stage.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -57,6 +60,8 @@ class LearningPathSettings:
         σ of the Gaussian perturbation of every actor parameter (> 0).
     policies, episodes : int
         N perturbed policies per snapshot, M episodes each.
+    bins : int or None
+        B of the histogram estimators at every snapshot (None: the metrics stage's B).
     batches : int
         Consecutive policy batches for the Welch tests (>= 2, at most N/2).
     seed : int
@@ -70,6 +75,7 @@ class LearningPathSettings:
     sigma: float = 1.0
     policies: int = 100
     episodes: int = 10
+    bins: int | None = None
     batches: int = 5
     seed: int = 0
     seed_index: int = 0
@@ -81,6 +87,8 @@ class LearningPathSettings:
         if self.policies < 2 * self.batches:
             raise ConfigError(f"learning_path.policies must be at least 2 × learning_path.batches = "
                               f"{2 * self.batches} (2 policies per batch), got {self.policies}")
+        if self.bins is not None and self.bins < 2:
+            raise ConfigError(f"learning_path.bins must be an integer >= 2 or null (metrics.bins), got {self.bins}")
         if not (self.sigma >= 0 and np.isfinite(self.sigma)):
             raise ConfigError(f"learning_path.sigma must be a finite number >= 0, got {self.sigma}")
         if self.seed < 0 or self.seed_index < 0:
@@ -90,6 +98,10 @@ class LearningPathSettings:
 
     def identity(self) -> dict:
         return result_identity(self)
+
+    def estimators(self, metrics: MetricsSettings) -> MetricsSettings:
+        """The metrics stage's estimator settings, with this stage's B when it has one."""
+        return metrics if self.bins is None else dataclasses.replace(metrics, bins=self.bins)
 
 
 def chosen_snapshots(count: int, every: int) -> list[int]:
@@ -149,6 +161,7 @@ def run_learning_path_stage(cache: Cache, request: RWGRequest, sac_key: str, act
                             progress=None) -> tuple[Artefact, bool]:
     """Compute (or reuse) one task's learning path; returns (artefact, cache hit)."""
     settings.validate()
+    metrics = settings.estimators(metrics)
     key = learning_path_key(request, sac_key, settings, metrics, registry)
 
     def write(directory):
