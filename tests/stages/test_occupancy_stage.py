@@ -128,6 +128,16 @@ def test_with_sac_trained_every_task_gets_a_distance_and_the_verdict_judges_it(w
     assert list(table.columns[3:]) == ["PIC", "POIC", "W₂ to SAC's policy", "learning-path PIC",
                                        "learning-path POIC", "PIC under DMPs", "POIC under DMPs"] and len(table) == 3
     assert (index.parent / "figures" / "learning_path.png").stat().st_size > 0
+    # the values table: each task's value ± the sd of its batch estimates, both from the verdict artefact
+    shown = pd.read_csv(index.parent / "tables" / "beyond_the_paper_values.csv")
+    samples = pd.read_parquet(artefacts.verdict.file("samples.parquet"))
+    assert len(shown) == 3 and "W₂ to SAC's policy" in shown.columns and "PIC" in shown.columns
+    for cell, task in zip(shown["W₂ to SAC's policy"], ["one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense"],
+                          strict=True):
+        value = values.loc[(values["metric"] == "ot_distance") & (values["task"] == task), "value"].iloc[0]
+        batch = samples.loc[(samples["metric"] == "ot_distance") & (samples["task"] == task), "value"]
+        mean, sd = (float(x) for x in cell.split(" ± "))
+        assert mean == pytest.approx(value, abs=6e-4) and sd == pytest.approx(batch.std(ddof=1), abs=6e-4)
 
 
 def test_the_learning_path_runs_at_every_sac_snapshot_and_enters_the_verdict(with_sac):

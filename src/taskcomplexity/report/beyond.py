@@ -14,6 +14,7 @@ import pandas as pd
 from taskcomplexity.metrics.registry import BEYOND
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData
+from taskcomplexity.report.format import MISSING, mean_sd
 from taskcomplexity.report.html import Paragraph, Section
 from taskcomplexity.report.writer import Writer
 from taskcomplexity.verdict import by_relation
@@ -67,6 +68,25 @@ def open_question_sentences(data: StudyData) -> list[str]:
     return sentences
 
 
+def proposed_values(data: StudyData, metrics: list[str]) -> pd.DataFrame:
+    """One row per task: each metric's value on the whole sample ± the sd of its batch estimates.
+
+    Both come from the verdict artefact (``values``, ``samples``: the estimates Welch's tests compare); a
+    metric without a value for a task shows as missing.
+    """
+    values, samples = data.verdict["values"], data.verdict["samples"]
+    rows = []
+    for task in data.tasks:
+        row = {"Task": data.name(task)}
+        for metric in metrics:
+            value = values[(values["task"] == task) & (values["metric"] == metric)]["value"]
+            batch = samples[(samples["task"] == task) & (samples["metric"] == metric)]["value"]
+            sd = batch.std(ddof=1) if len(batch) > 1 else float("nan")
+            row[data.registry.label(metric)] = mean_sd(float(value.iloc[0]), sd) if len(value) else MISSING
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
 def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataFrame] | None = None
                    ) -> Section | None:
     """The answer to the paper's open question, one sentence per proposed metric (None: none is registered).
@@ -83,6 +103,12 @@ def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataF
     computed = [m.name for m in proposed if (verdict["metric"] == m.name).any()]
     compared = [m.name for m in data.registry if m.primary] + computed
     table = by_relation(verdict, compared)
+    if computed:
+        blocks.append(writer.table(
+            proposed_values(data, compared), "beyond_the_paper_values", "The proposed metrics on each task.",
+            "Value on the whole sample ± the standard deviation of its estimates on the policy batches that "
+            "Welch's tests compare (not a bootstrap sd; the stages' artefacts hold the bootstrap). PIC and "
+            "POIC beside them for comparison; each metric's direction is stated above."))
     if computed and not table.empty:
         shown = table.drop(columns=["survives"]).assign(
             easier=table["easier"].map(data.name), harder=table["harder"].map(data.name),
