@@ -391,17 +391,20 @@ def learning_path_figure(paths: Mapping[str, pd.DataFrame], styles: Mapping[str,
     Left panel PIC_k, right panel POIC_k (nats); the dotted line is each task's path mean, the metric.
     """
     with paper_style():
-        figure, axes = _figure(1, 2, 2.8)
+        figure, axes = _figure(1, 2, 3.3)
         for ax, column, label in zip(axes[0], ("pic", "poic"), ("PIC", "POIC"), strict=True):
             for task, path in paths.items():
                 style = styles[task]
                 ax.plot(path["step"], path[column], marker=style.marker, markersize=3, color=style.colour,
                         label=style.name)
                 ax.axhline(path[column].mean(), color=style.colour, linestyle=":", linewidth=0.8)
+            ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
+            ax.xaxis.set_major_formatter(mpl.ticker.FuncFormatter(
+                lambda value, _: f"{value / 1000:g}k" if value else "0"))
             ax.set_xlabel("SAC environment steps at the snapshot")
             ax.set_ylabel(f"{label}ₖ around the actor (nats)")
             ax.set_title(f"learning-path {label}")
-        axes[0][0].legend(frameon=False, fontsize="small")
+        figure.legend(*axes[0][0].get_legend_handles_labels(), loc="outside lower center", ncol=4, frameon=False)
     return figure
 
 
