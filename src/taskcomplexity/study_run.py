@@ -1,4 +1,4 @@
-"""The whole chain of a study from a composed config: its artefacts (:mod:`taskcomplexity.stages.chain`),
+"""The whole chain of a study from a composed config: its artefacts (:mod:`taskcomplexity.study_chain`),
 then its report (:mod:`taskcomplexity.report`). The only module that joins the two, so that neither
 imports the other."""
 
@@ -12,7 +12,7 @@ from typing import Any
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report.build import build_report
-from taskcomplexity.stages.chain import StudyArtefacts, study_artefacts
+from taskcomplexity.study_chain import StudyArtefacts, study_artefacts
 
 log = logging.getLogger(__name__)
 

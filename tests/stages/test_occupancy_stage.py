@@ -86,7 +86,7 @@ def test_bad_settings_are_one_line_naming_the_key(key, value, match):
 @pytest.fixture(scope="module")
 def with_sac(tmp_path_factory):
     """Three dense arm tasks at smoke size with SAC trained (200 steps, one seed): the whole chain and its report."""
-    from taskcomplexity.stages.chain import study_artefacts
+    from taskcomplexity.study_chain import study_artefacts
     from taskcomplexity.study_run import run_study
 
     GlobalHydra.instance().clear()
@@ -156,7 +156,7 @@ def test_the_learning_path_runs_at_every_sac_snapshot_and_enters_the_verdict(wit
 
 
 def test_the_occupancy_key_follows_its_settings_and_a_rerun_hits_the_cache(with_sac, caplog):
-    from taskcomplexity.stages.chain import study_artefacts
+    from taskcomplexity.study_chain import study_artefacts
 
     cfg, artefacts, _ = with_sac
     again = study_artefacts(cfg)

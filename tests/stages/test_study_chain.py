@@ -13,7 +13,7 @@ from omegaconf import open_dict
 
 from taskcomplexity.cli import CONF_DIR, study_from
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.stages.chain import run_verdict
+from taskcomplexity.study_chain import run_verdict
 from taskcomplexity.study_run import run_study
 
 

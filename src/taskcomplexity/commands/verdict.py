@@ -18,7 +18,7 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
-from taskcomplexity.stages.chain import run_verdict
+from taskcomplexity.study_chain import run_verdict
 
 log = logging.getLogger("verdict")
 

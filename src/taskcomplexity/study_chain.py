@@ -1,7 +1,8 @@
 """The stages of a study from a composed config: RWG → metrics → diagnostics → SAC → verdict.
 
 The report reads what these produce (:func:`study_artefacts`); it is written by
-:func:`taskcomplexity.study_run.run_study`, so that this package never imports the report.
+:func:`taskcomplexity.study_run.run_study`, so that the chain never imports the report. It reads the
+Hydra config (through :mod:`taskcomplexity.cli`), so it stands above the stages package, which does not.
 """
 
 from __future__ import annotations
