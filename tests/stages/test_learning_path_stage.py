@@ -129,7 +129,7 @@ def test_the_path_estimates_at_its_own_bins_not_at_the_studys(tmp_path):
         artefact, _ = run_learning_path_stage(cache, request, "sac-key", tmp_path / "actors.npz", settings, metrics)
         return artefact, pd.read_parquet(artefact.file("path.parquet"))
 
-    study_b = LearningPathSettings(policies=20, episodes=6, batches=2, sigma=1.0)
+    study_b = LearningPathSettings(policies=20, episodes=6, batches=2, sigma=1.0, bins=None)
     own_b = dataclasses.replace(study_b, bins=12)
     saturated, curve = path_of(study_b)
     assert (curve["pic"] <= np.log(20) + 1e-12).all() and (curve["pic"] > np.log(20) - 0.1).all()  # ~ceiling

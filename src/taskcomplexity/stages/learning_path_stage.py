@@ -61,7 +61,8 @@ class LearningPathSettings:
     policies, episodes : int
         N perturbed policies per snapshot, M episodes each.
     bins : int or None
-        B of the histogram estimators at every snapshot (None: the metrics stage's B).
+        B of the histogram estimators at every snapshot (20: N·M/B = 50 returns per bin at the default N
+        and M, the published scale's ratio; None: the metrics stage's B).
     batches : int
         Consecutive policy batches for the Welch tests (>= 2, at most N/2).
     seed : int
@@ -75,7 +76,7 @@ class LearningPathSettings:
     sigma: float = 1.0
     policies: int = 100
     episodes: int = 10
-    bins: int | None = None
+    bins: int | None = 20
     batches: int = 5
     seed: int = 0
     seed_index: int = 0
