@@ -256,11 +256,17 @@ def refuse_unread_overrides(task, typed: list[str]) -> None:
                               f"{', '.join(REACHING_ONLY)}; use task.max_steps or task.kwargs for a gymnasium task)")
 
 
-def metrics_settings_from_config(cfg: Any):
+def metrics_settings_from_config(cfg: Any, study=None):
+    """The metrics settings of a composed config; with a ``study`` that has a published protocol, its
+    (N, M, B) pinned, so that ``metrics.bins=auto`` is its B at its N and M."""
     from taskcomplexity.stages.metrics_stage import MetricsSettings
 
     node = {k: v for k, v in dict(cfg.metrics).items() if k != "scope"}
-    return build(MetricsSettings, node, "metrics")
+    settings = build(MetricsSettings, node, "metrics")
+    published = getattr(study, "published", None)
+    if published is not None:
+        settings = dataclasses.replace(settings, pinned=(published.policies, published.episodes, published.bins))
+    return settings
 
 
 def study_from(cfg: Any):
@@ -467,7 +473,7 @@ def study_plan(cfg: Any) -> StudyPlan:
     study = study_from(cfg)
     entries, requests = zip(*study_requests(cfg, study), strict=True)
     check_study_settings(cfg, study, requests)
-    return StudyPlan(study, entries, requests, metrics_settings_from_config(cfg), cache_from_config(cfg))
+    return StudyPlan(study, entries, requests, metrics_settings_from_config(cfg, study), cache_from_config(cfg))
 
 
 def sac_command() -> str:

@@ -53,7 +53,13 @@ def _convert(value: Any, hint: Any, key: str) -> Any:
         if value is None and type(None) in args:
             return None
         inner = [a for a in args if a is not type(None)]
-        return _convert(value, inner[0], key)
+        first_error = None
+        for option in inner:  # e.g. ``int | str`` for ``metrics.bins``: an integer, or "auto"
+            try:
+                return _convert(value, option, key)
+            except ConfigError as err:
+                first_error = first_error or err
+        raise first_error
     if dataclasses.is_dataclass(hint):
         return build(hint, value, key)
     if origin is tuple:

@@ -24,6 +24,7 @@ from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
+from taskcomplexity.verdict import OUTCOMES
 
 SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 RELATIONS, TASKS = SEVEN_TASKS.relations, SEVEN_TASKS.ids
@@ -164,19 +165,25 @@ def test_the_verdict_has_a_row_for_every_relation_and_metric(report, study):
     her = verdict[verdict["metric"] == "sac_her_final"]
     sparse = [r for r in RELATIONS if r.easier.endswith("sparse") and r.harder.endswith("sparse")]
     assert (her["outcome"] != "undefined").sum() == len(sparse)
-    assert set(verdict["outcome"]) <= {"agree", "contradict", "not significant", "undefined"}
+    assert set(verdict["outcome"]) <= set(OUTCOMES)
 
 
 def test_the_report_shows_the_numbers_of_the_artefacts(report, study):
     found = study[1]
     table1 = pd.read_csv(report.parent / "tables" / "table1.csv")
-    assert list(table1.columns) == ["Group", "Task", "PIC", "POIC"]
+    assert list(table1.columns) == ["Group", "Task", "PIC", "PIC null share", "POIC", "POIC null share"]
     assert table1["Task"].tolist()[:2] == ["1-link, L = 1.0 m", "1-link, L = 1.65 m"]
     assert table1["Group"].tolist() == ["dense"] * 4 + ["sparse"] * 3
+    checked = pd.read_parquet(found["verdict"].file("information.parquet")).set_index(["metric", "task"])
     for row, result in zip(table1.itertuples(index=False), found["results"], strict=True):
         metrics = result.table("metrics.parquet").iloc[0]
         assert row.PIC == mean_sd(metrics["pic_mean"], metrics["pic_sd"])
         assert row.POIC == mean_sd(metrics["poic_mean"], metrics["poic_sd"])
+        # the null's share of the value: its null mean over the whole-sample value, from the diagnostics
+        null = pd.read_parquet(found["diagnostics"][result.task_id].file("null.parquet"))
+        share = null["pic"].mean() / metrics["pic"]
+        assert checked.loc[("pic", result.task_id), "null_share"] == pytest.approx(share)
+        assert row[3] == f"{100 * share:.1f} %"
     tidy = pd.read_csv(report.parent / "tables" / "verdict_tidy.csv", float_precision="round_trip")
     artefact = pd.read_parquet(found["verdict"].file("verdict.parquet"))
     assert tidy["outcome"].tolist() == artefact["outcome"].tolist()

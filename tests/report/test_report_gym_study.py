@@ -55,7 +55,7 @@ def test_the_page_uses_the_study_labels_and_says_what_is_missing(pair):
     assert "Cart-pole &lt; Pendulum" in html or "Cart-pole < Pendulum" in html
     assert "swing up" in html and "swing_up" not in html
     table1 = pd.read_csv(index.parent / "tables" / "table1.csv")
-    assert list(table1.columns) == ["Task", "PIC", "POIC"]  # no groups: rows indexed by label
+    assert list(table1.columns) == ["Task", "PIC", "PIC null share", "POIC", "POIC null share"]  # no groups
     assert table1["Task"].tolist() == ["Cart-pole", "Pendulum"]
     assert "SAC curves were not computed" in html
     assert "it rates" in html or "no metric contradicts it" in html

@@ -8,6 +8,7 @@ significance). The same tests apply to bootstrap draws or to SAC seeds.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import NamedTuple
 
@@ -45,20 +46,56 @@ def welch_test(a: object, b: object) -> WelchResult:
         differ, and t = p = NaN if they are equal (as :func:`scipy.stats.ttest_ind`).
     """
     a, b = _sample(a, "a"), _sample(b, "b")
-    var_a, var_b = a.var(ddof=1) / a.size, b.var(ddof=1) / b.size
-    difference = a.mean() - b.mean()
-    spread = var_a + var_b
+    difference, spread, dof = _welch_terms(a, b)
     if spread == 0:
         if difference == 0:
             return WelchResult(float("nan"), float("nan"))
         return WelchResult(float(np.copysign(np.inf, difference)), 0.0)
     statistic = difference / np.sqrt(spread)
-    # Welch–Satterthwaite degrees of freedom, with the variances scaled by their maximum so
-    # that squaring tiny (or huge) variances cannot underflow (overflow).
-    ratio_a, ratio_b = var_a / max(var_a, var_b), var_b / max(var_a, var_b)
-    dof = (ratio_a + ratio_b) ** 2 / (ratio_a**2 / (a.size - 1) + ratio_b**2 / (b.size - 1))
     pvalue = 2.0 * scipy.stats.t.sf(abs(statistic), dof)
     return WelchResult(float(statistic), float(pvalue))
+
+
+def policies_to_resolve(a: object, b: object, policies: int, *, alpha: float = SIGNIFICANCE_LEVEL) -> float:
+    """N at which Welch's test on the batches of two tasks would reach ``p < alpha`` (at the same M and batches).
+
+    Parameters
+    ----------
+    a, b : array_like, shape (K_a,), (K_b,)
+        A metric's values on the consecutive policy batches of two tasks, each from N policies.
+    policies : int
+        N, the policies each task's batches were drawn from.
+    alpha : float, default 0.005
+        The significance cut-off.
+
+    Returns
+    -------
+    float
+        The smallest N' (rounded up) at which the Welch statistic reaches the two-sided critical
+        value, assuming that the difference of the batch means stays as measured and that the
+        batches' variance falls as 1/N (each batch holds N/K policies; the standard error of a
+        smooth estimate over policies scales as N^-1/2): N' = N · (t_crit / t)², with t the statistic
+        measured here and t_crit the Student quantile at its Welch–Satterthwaite degrees of freedom
+        (which the scaling leaves unchanged). The measured t is noisy (K − 1 degrees of freedom a
+        side), so N' is too: it is about median-unbiased (in simulations half the runs land above the
+        N at which half the tests resolve the difference, half below). Below N when the difference is
+        already significant; inf when the batch means are equal (nothing to resolve); NaN when the
+        test cannot be run (fewer than 2 finite values on a side, or both sides constant).
+    """
+    alpha = check_fraction(alpha, "alpha")
+    policies = check_int(policies, "policies", minimum=1)
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+    if a.size < 2 or b.size < 2:
+        return float("nan")
+    difference, spread, dof = _welch_terms(a, b)
+    if spread == 0:
+        return float("nan")
+    if difference == 0:
+        return float("inf")
+    critical = scipy.stats.t.isf(alpha / 2.0, dof)
+    return float(math.ceil(policies * critical**2 * spread / difference**2))
 
 
 def welch_matrix(samples: Mapping[str, object], *, alpha: float = SIGNIFICANCE_LEVEL) -> pd.DataFrame:
@@ -120,6 +157,19 @@ def format_welch_matrix(tests: pd.DataFrame, *, digits: int = 3) -> pd.DataFrame
     tasks = list(dict.fromkeys([*tests["task_a"], *tests["task_b"]]))
     table = cells.pivot(index="task_a", columns="task_b", values="cell").reindex(index=tasks, columns=tasks)
     return table.fillna("")
+
+
+def _welch_terms(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
+    """(mean a − mean b, var a / n_a + var b / n_b, Welch–Satterthwaite degrees of freedom; NaN when both
+    variances are 0)."""
+    var_a, var_b = a.var(ddof=1) / a.size, b.var(ddof=1) / b.size
+    spread = var_a + var_b
+    if spread == 0:
+        return float(a.mean() - b.mean()), 0.0, float("nan")
+    # The variances scaled by their maximum, so that squaring tiny (or huge) ones cannot underflow (overflow).
+    ratio_a, ratio_b = var_a / max(var_a, var_b), var_b / max(var_a, var_b)
+    dof = (ratio_a + ratio_b) ** 2 / (ratio_a**2 / (a.size - 1) + ratio_b**2 / (b.size - 1))
+    return float(a.mean() - b.mean()), float(spread), float(dof)
 
 
 def _sample(values: object, name: str) -> np.ndarray:

@@ -72,6 +72,32 @@ class Detail:
 
 
 @dataclass(frozen=True)
+class Information:
+    """How the verdict tells whether a metric's value carries information about the task
+    (:mod:`taskcomplexity.verdict.information`).
+
+    Attributes
+    ----------
+    null : str or None
+        The permutation null of the diagnostics stage that applies to the value: ``"pic"`` or
+        ``"poic"`` (the returns shuffled across policies, where the true information is 0). The value
+        carries information when it exceeds that null significantly.
+    ceiling : bool
+        The value is an information about the policy index, at most ln N (N: the policies of the sample
+        it was estimated on); near that ceiling it cannot rank tasks.
+    net_of_null : bool
+        The value is already net of the null (e.g. PIC − null): its null share is not reported.
+    """
+
+    null: str | None = None
+    ceiling: bool = False
+    net_of_null: bool = False
+
+    def identity(self) -> dict:
+        return {"null": self.null, "ceiling": self.ceiling, "net_of_null": self.net_of_null}
+
+
+@dataclass(frozen=True)
 class Metric:
     """One complexity metric.
 
@@ -111,6 +137,12 @@ class Metric:
         Why its direction is what it is (shown in the report's methods).
     version : int
         Bump when ``compute`` changes, so that cached artefacts are recomputed.
+    information : Information or None
+        Its null and ceiling, which the verdict checks before it judges a relation on its values
+        (None: no check; every finite value is judged).
+    comparable_across_tasks : bool
+        Its values are on one scale whatever the task (False for values in each task's own reward
+        units, e.g. the raw mean return): the report never ranks it across tasks as a complexity measure.
     """
 
     name: str
@@ -129,6 +161,8 @@ class Metric:
     quantity: str = ""
     why: str = ""
     version: int = 1
+    information: Information | None = None
+    comparable_across_tasks: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not re.fullmatch(r"[a-z][a-z0-9_]*", self.name):
@@ -231,13 +265,14 @@ DEFAULT_REGISTRY = Registry((
     Metric("pic", "PIC", "PIC", "nats", True, "random policies", "metrics",
            compute=lambda s: s.pic.pic, bootstrapped=True, batched=True,
            draws=lambda s: s.bootstrap["pic"].to_numpy(), primary=True, quantity=_I,
+           information=Information(null="pic", ceiling=True),
            details=(Detail("h_r", "H(R)", "nats", lambda s: s.pic.h_r),
                     Detail("h_r_given_theta", "H(R|Θ)", "nats", lambda s: s.pic.h_r_given_theta)),
            why="the paper's claim: more information between the policy parameters and the return means that the "
                "choice of parameters matters, which is what optimisation exploits"),
     Metric("poic", "POIC", "POIC", "nats", True, "random policies", "metrics",
            compute=lambda s: s.poic.poic, bootstrapped=True, batched=True,
-           draws=lambda s: s.bootstrap["poic"].to_numpy(), primary=True,
+           draws=lambda s: s.bootstrap["poic"].to_numpy(), primary=True, information=Information(null="poic"),
            details=(Detail("temperature", "λ*", "return units", lambda s: s.poic.temperature, shown=False),
                     Detail("temperature_at_boundary", "λ* on a boundary", "", lambda s: s.poic.at_boundary,
                            shown=False),
@@ -251,21 +286,23 @@ DEFAULT_REGISTRY = Registry((
            why="the mean return of random policies sits closer to the best return found, so good behaviour is "
                "common under the prior and cheap to find"),
     Metric("r_mean", "mean return", "mean R", "sum of rewards", True, "random policies", "metrics",
-           compute=lambda s: s.score.r_mean, batched=True,
+           compute=lambda s: s.score.r_mean, batched=True, comparable_across_tasks=False,
            why="rewards are what the agent maximises, so a prior whose average behaviour already earns more "
                "starts closer to the goal (returns are in task units: a crude baseline across tasks)"),
     Metric("variance", "variance", "var.", "sum of rewards", True, "random policies", "metrics",
-           compute=lambda s: s.score.variance, batched=True,
+           compute=lambda s: s.score.variance, batched=True, comparable_across_tasks=False,
            why="the spread of returns across random behaviour is the signal random search and policy gradients "
                "follow; a task where every policy earns the same return gives no direction to improve"),
     Metric("pic_miller_madow", "PIC (Miller–Madow)", "PIC MM", "nats", True, "estimator", "diagnostics",
-           compute=lambda s: s.pic_miller_madow.pic, batched=True, quantity=_I, why=_OTHER_ESTIMATOR),
+           compute=lambda s: s.pic_miller_madow.pic, batched=True, quantity=_I, why=_OTHER_ESTIMATOR,
+           information=Information(ceiling=True)),
     Metric("pic_knn", "PIC (k-NN)", "PIC kNN", "nats", True, "estimator", "diagnostics",
            compute=lambda s: s.knn.mi, batched=True, quantity=_I, why=_OTHER_ESTIMATOR,
            details=(Detail("knn_policies", "k-NN policies", "policies", lambda s: s.knn.policies, shown=False),
                     Detail("knn_episodes", "k-NN episodes", "episodes", lambda s: s.knn.episodes, shown=False))),
     Metric("pic_minus_null", "PIC − null", "PIC − null", "nats", True, "estimator", "diagnostics",
            compute=lambda s: float(s.pic.pic - s.null_pic.mean()), batched=True, quantity=_I,
+           information=Information(null="pic", net_of_null=True),
            why=_OTHER_ESTIMATOR + " (net of its permutation null)"),
     Metric("ot_distance", "W₂ to SAC's policy", "W₂ to SAC", "pooled sd", False, BEYOND, "occupancy",
            compute=lambda s: s.mean, bootstrapped=True, batched=True,
@@ -276,6 +313,7 @@ DEFAULT_REGISTRY = Registry((
                "prior"),
     Metric("path_pic", "learning-path PIC", "path PIC", "nats", True, BEYOND, "learning_path",
            compute=lambda p: p.pic, bootstrapped=True, batched=True, draws=lambda p: p.draws("pic"),
+           information=Information(ceiling=True),
            why="the paper's second proposal: PIC measured around the parameters SAC passes through while it "
                "learns, where the choice of parameters matters to an optimiser, instead of around the prior's"),
     Metric("path_poic", "learning-path POIC", "path POIC", "nats", True, BEYOND, "learning_path",
@@ -283,7 +321,7 @@ DEFAULT_REGISTRY = Registry((
            why="the paper's second proposal, for POIC: the optimality information around SAC's learning path"),
     Metric("dmp_pic", "PIC under DMPs", "DMP PIC", "nats", True, BEYOND, "primitives",
            compute=lambda s: s.pic.pic, bootstrapped=True, batched=True,
-           draws=lambda s: s.bootstrap["pic"].to_numpy(),
+           draws=lambda s: s.bootstrap["pic"].to_numpy(), information=Information(ceiling=True),
            details=(Detail("dmp_h_r", "H(R) under DMPs", "nats", lambda s: s.pic.h_r, shown=False),
                     Detail("dmp_h_r_given_theta", "H(R|Θ) under DMPs", "nats", lambda s: s.pic.h_r_given_theta,
                            shown=False)),

@@ -19,7 +19,7 @@ from taskcomplexity.report.labels import TaskStyle, task_styles
 from taskcomplexity.study import Study
 
 DIAGNOSTIC_FILES = ("null", "null_summary", "bins_sweep", "subsample_sweep", "estimators", "batches")
-VERDICT_FILES = ("verdict", "summary", "references", "correlations", "values", "samples", "welch")
+VERDICT_FILES = ("verdict", "summary", "references", "correlations", "values", "samples", "welch", "information")
 SAC_FILE = "sac_per_seed"
 
 

@@ -65,7 +65,7 @@ def joined(values) -> str:
 _LATEX = {
     "−": "$-$", "×": "$\\times$", "✓": "$\\surd$", "✗": "$\\times$", "Θ": "$\\Theta$", "λ": "$\\lambda$",
     "τ": "$\\tau$", "√": "$\\surd$", "ₙ": "$_n$", "′": "$'$", "·": "$\\cdot$", "\u00a0": "~",
-    "<": "$<$", ">": "$>$", "|": "$|$",
+    "<": "$<$", ">": "$>$", "|": "$|$", "○": "$\\circ$", "≈": "$\\approx$", "\u2009": "\\,",
 }
 _SUPERSCRIPT_RUN = re.compile("[⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+")
 
@@ -82,3 +82,24 @@ def latex_text(text: str) -> str:
 def slug(text: str) -> str:
     """A file-name-safe version of ``text``."""
     return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_") or "ablation"
+
+
+def percent(share: float) -> str:
+    """A share as a percentage ("99.8 %"), or the missing mark."""
+    return MISSING if not np.isfinite(share) else f"{100 * share:.1f} %"
+
+
+def policies_needed(policies: float) -> str:
+    """An N-to-resolve estimate for a table cell: "≈ 1 700", "> 10⁹" (no difference to resolve), or missing."""
+    if np.isnan(policies):
+        return MISSING
+    if not np.isfinite(policies) or policies > 1e9:
+        return "> 10⁹"
+    return f"≈ {significant_int(policies)}"
+
+
+def significant_int(value: float, digits: int = 2) -> str:
+    """An integer rounded to ``digits`` significant digits, with thin-space thousands (1 700, 25 000)."""
+    rounded = int(float(f"{value:.{digits}g}")) if value >= 10 ** digits else int(np.ceil(value))
+    return f"{rounded:,}".replace(",", " ")
+

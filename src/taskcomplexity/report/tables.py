@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import MISSING, latex_text, mean_sd, num, pvalue, statistic
+from taskcomplexity.report.format import MISSING, latex_text, mean_sd, num, percent, pvalue, statistic
 from taskcomplexity.report.labels import has_groups
 
 
@@ -40,14 +40,28 @@ def task_columns(data: StudyData, task: str) -> dict[str, str]:
 
 
 def table1(data: StudyData) -> pd.DataFrame:
-    """Table 1 of the paper: every bootstrapped metric as bootstrap mean ± sd, one row per task."""
+    """Table 1 of the paper: every bootstrapped metric as bootstrap mean ± sd, one row per task, and beside
+    each metric with a permutation null the share of its value that the null gives (its estimator's bias,
+    from the verdict's information check; missing without diagnostics)."""
     metrics = [m for m in data.registry.of_stage("metrics") if m.bootstrapped]
+    shares = null_shares(data)
     rows = []
     for _, r in data.metrics.iterrows():
-        rows.append({**task_columns(data, r["task"]),
-                     **{m.label: mean_sd(r.get(f"{m.name}_mean", np.nan), r.get(f"{m.name}_sd", np.nan))
-                        for m in metrics}})
+        row = task_columns(data, r["task"])
+        for m in metrics:
+            row[m.label] = mean_sd(r.get(f"{m.name}_mean", np.nan), r.get(f"{m.name}_sd", np.nan))
+            if m.information is not None and m.information.null and not m.information.net_of_null:
+                row[f"{m.short} null share"] = percent(shares.get((m.name, r["task"]), np.nan))
+        rows.append(row)
     return pd.DataFrame(rows)
+
+
+def null_shares(data: StudyData) -> dict[tuple[str, str], float]:
+    """(metric, task) → the share of the value its permutation null gives (the verdict's information table)."""
+    checked = data.verdict.get("information")
+    if checked is None or checked.empty:
+        return {}
+    return {(m, t): float(v) for m, t, v in zip(checked["metric"], checked["task"], checked["null_share"], strict=True)}
 
 
 def interval_table(data: StudyData) -> pd.DataFrame:

@@ -7,12 +7,12 @@ import numpy as np
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import MISSING, num, pvalue
+from taskcomplexity.report.format import MISSING, num, percent, policies_needed, pvalue
 from taskcomplexity.report.labels import kind_label
 from taskcomplexity.verdict import by_relation
 from taskcomplexity.verdict.references import reference_label
 
-SYMBOLS = {"agree": "✓", "contradict": "✗", "not significant": "–", "undefined": "?"}
+SYMBOLS = {"agree": "✓", "contradict": "✗", "not significant": "–", "uninformative": "○", "undefined": "?"}
 RELATION = "Known relation (easier < harder)"
 
 
@@ -62,6 +62,8 @@ def verdict_display(data: StudyData) -> pd.DataFrame:
         "Outcome": verdict["outcome"],
         "p": verdict["pvalue"].map(pvalue),
         "Samples": [f"{a} vs {b}" for a, b in zip(verdict["samples_easier"], verdict["samples_harder"], strict=True)],
+        "Null's share of the difference": verdict["null_share_of_difference"].map(percent),
+        "N to resolve": verdict["policies_to_resolve"].map(policies_needed),
     })
 
 
@@ -77,6 +79,8 @@ def summary_display(data: StudyData) -> pd.DataFrame:
         table["Agree"] = summary["agreements"]
         table["Contradict"] = summary["contradictions"]
         table["Not significant"] = summary["not_significant"]
+        if summary["uninformative"].any():
+            table["Uninformative"] = summary["uninformative"]
         if summary["undefined"].any():
             table["Undefined"] = summary["undefined"]
     for column in [c for c in summary.columns if c.startswith("kendall_tau_")]:

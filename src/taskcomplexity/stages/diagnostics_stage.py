@@ -38,7 +38,7 @@ from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
 from taskcomplexity.progress import stage_bar
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
-from taskcomplexity.stages.metrics_stage import MetricsSettings
+from taskcomplexity.stages.metrics_stage import MetricsSettings, returns_shape
 from taskcomplexity.stages.rwg_stage import load_returns
 from taskcomplexity.stages.stage_log import StageLog
 
@@ -144,7 +144,7 @@ def diagnostics_key(
 
 def estimation(metrics_settings: MetricsSettings, settings: DiagnosticsSettings) -> Estimation:
     """The estimator settings of the stage's metrics."""
-    return Estimation(bins=int(metrics_settings.bins), search=metrics_settings.poic_search(),
+    return Estimation(bins=metrics_settings.resolved_bins, search=metrics_settings.poic_search(),
                       null_repeats=settings.repeats, knn_neighbors=settings.knn_neighbors,
                       knn_max_samples=settings.knn_max_samples,
                       knn_episodes_per_policy=settings.knn_episodes_per_policy, seed=settings.seed)
@@ -273,6 +273,7 @@ def run_diagnostics_stage(
     """
     metrics_settings.validate()
     diagnostics_settings.validate()
+    metrics_settings = metrics_settings.at_scale(*returns_shape(rwg_artefact))
     key = diagnostics_key(rwg_artefact.key, metrics_settings, diagnostics_settings, registry)
 
     def write(directory):

@@ -100,9 +100,11 @@ class LearningPathSettings:
     def identity(self) -> dict:
         return result_identity(self)
 
-    def estimators(self, metrics: MetricsSettings) -> MetricsSettings:
-        """The metrics stage's estimator settings, with this stage's B when it has one."""
-        return metrics if self.bins is None else dataclasses.replace(metrics, bins=self.bins)
+    def estimators(self, metrics: MetricsSettings, policies: int, episodes: int) -> MetricsSettings:
+        """The metrics stage's estimator settings, with this stage's B when it has one (else ``metrics.bins``
+        resolved for this stage's N × M return matrices)."""
+        chosen = metrics if self.bins is None else dataclasses.replace(metrics, bins=self.bins)
+        return chosen.at_scale(policies, episodes)
 
 
 def chosen_snapshots(count: int, every: int) -> list[int]:
@@ -162,7 +164,7 @@ def run_learning_path_stage(cache: Cache, request: RWGRequest, sac_key: str, act
                             progress=None) -> tuple[Artefact, bool]:
     """Compute (or reuse) one task's learning path; returns (artefact, cache hit)."""
     settings.validate()
-    metrics = settings.estimators(metrics)
+    metrics = settings.estimators(metrics, settings.policies, settings.episodes)
     key = learning_path_key(request, sac_key, settings, metrics, registry)
 
     def write(directory):

@@ -16,6 +16,7 @@ metric recomputes the artefact instead of serving one without it.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -27,6 +28,7 @@ from taskcomplexity.config import result_identity, setting
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
 from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.metrics.temperature import POICSearch
 from taskcomplexity.stages.cache import Artefact, Cache
@@ -38,6 +40,8 @@ log = logging.getLogger(__name__)
 STAGE = "metrics"
 VERSION = 2
 FILES = ("metrics.parquet", "policies.parquet", "bootstrap.parquet", "batches.parquet")
+AUTO = "auto"
+"""``metrics.bins`` chosen from the return matrix's N and M (:meth:`MetricsSettings.at_scale`)."""
 
 
 @dataclass(frozen=True)
@@ -46,8 +50,11 @@ class MetricsSettings:
 
     Attributes
     ----------
-    bins : int
-        B, histogram bins of PIC (>= 2).
+    bins : int or "auto"
+        B, histogram bins of PIC (>= 2); ``"auto"`` (the default) resolves, for a return matrix of
+        N policies × M episodes, to the pinned B of its protocol when it is sampled at that protocol's
+        N and M (a study's ``published`` block), else to the paper's ratio N·M / 50
+        (:func:`~taskcomplexity.metrics.pic.auto_bins`; 10⁵ at the published N = 10⁴, M = 500).
     temperature_range : (float, float)
         POIC temperature search interval, 0 < low < high (the other search options keep their
         :class:`~taskcomplexity.metrics.temperature.POICSearch` defaults).
@@ -59,18 +66,24 @@ class MetricsSettings:
         Significance cut-off of the tests.
     seed : int
         Seed of the bootstrap.
+    pinned : (int, int, int) or None
+        (N, M, B) of the study's protocol (its ``published`` block): ``bins="auto"`` is that B for a
+        return matrix of that N and M. Set by the study's plan, not a config key; not hashed (the
+        resolved B is).
     """
 
-    bins: int = 100_000
+    bins: int | str = AUTO
     temperature_range: tuple[float, float] = POICSearch().temperature_range
     resamples: int = 1000
     batches: int = 5
     alpha: float = setting(0.005, result=False)
     seed: int = 0
+    pinned: tuple[int, int, int] | None = setting(None, result=False)
 
     def validate(self) -> None:
-        if self.bins < 2:
-            raise ConfigError(f"metrics.bins must be an integer >= 2 (B), got {self.bins}")
+        if self.bins != AUTO and (isinstance(self.bins, bool) or not isinstance(self.bins, int) or self.bins < 2):
+            raise ConfigError(f"metrics.bins must be an integer >= 2 (B) or {AUTO} (N·M / {RETURNS_PER_BIN}, or the "
+                              f"study's pinned B at its published N and M), got {self.bins!r}")
         low, high = self.temperature_range
         if not (math.isfinite(low) and math.isfinite(high) and 0 < low < high):
             raise ConfigError(
@@ -89,13 +102,29 @@ class MetricsSettings:
         """The fields declared to change the result (all but ``alpha``, which only the verdict reads)."""
         return result_identity(self)
 
+    def at_scale(self, policies: int, episodes: int) -> MetricsSettings:
+        """These settings with ``bins="auto"`` resolved for an N × M return matrix (an integer B is kept):
+        the pinned protocol's B at its own N and M, else :func:`~taskcomplexity.metrics.pic.auto_bins`."""
+        if self.bins != AUTO:
+            return self
+        if self.pinned is not None and (int(policies), int(episodes)) == tuple(self.pinned[:2]):
+            return dataclasses.replace(self, bins=int(self.pinned[2]))
+        return dataclasses.replace(self, bins=auto_bins(int(policies), int(episodes)))
+
+    @property
+    def resolved_bins(self) -> int:
+        """B as an integer (raises when it is still ``"auto"``: resolve with :meth:`at_scale` first)."""
+        if self.bins == AUTO:
+            raise ValueError("metrics.bins is 'auto': resolve it for a return matrix with at_scale(N, M) first")
+        return int(self.bins)
+
     def poic_search(self) -> POICSearch:
         """The POIC temperature search over ``temperature_range``."""
         return POICSearch(temperature_range=tuple(self.temperature_range))
 
     def estimation(self) -> Estimation:
         """The estimator settings every registered metric reads."""
-        return Estimation(bins=self.bins, search=self.poic_search(), resamples=self.resamples,
+        return Estimation(bins=self.resolved_bins, search=self.poic_search(), resamples=self.resamples,
                           bootstrap_seed=self.seed)
 
 
@@ -137,8 +166,13 @@ def run_metrics_stage(
     force: bool = False,
     progress: bool = False,
 ) -> tuple[Artefact, bool]:
-    """Compute (or reuse) the metrics of one RWG artefact; returns (artefact, cache hit)."""
+    """Compute (or reuse) the metrics of one RWG artefact; returns (artefact, cache hit).
+
+    ``settings.bins="auto"`` is resolved here from the artefact's N and M (the study chain resolves it
+    before, with the study's pinned protocol).
+    """
     settings.validate()
+    settings = settings.at_scale(*returns_shape(rwg))
     key = metrics_key(rwg.key, settings, registry)
 
     def write(directory):
@@ -149,3 +183,9 @@ def run_metrics_stage(
 
     config = {**settings.identity(), "metrics": [m.name for m in registry.of_stage(STAGE)]}
     return cache.get_or_compute(STAGE, key, write, config=config, inputs={"rwg": rwg.key}, force=force)
+
+
+def returns_shape(rwg: Artefact) -> tuple[int, int]:
+    """(N, M) of an RWG artefact, from its manifest (the settings its key hashes)."""
+    config = rwg.manifest.get("config", {})
+    return int(config["policies"]), int(config["episodes"])

@@ -100,9 +100,11 @@ class PrimitivesSettings:
                               f"(2 policies per batch), got {self.policies}")
         return self
 
-    def estimators(self, metrics: MetricsSettings) -> MetricsSettings:
-        """The metrics stage's estimator settings, with this stage's B when it has one."""
-        return metrics if self.bins is None else dataclasses.replace(metrics, bins=self.bins)
+    def estimators(self, metrics: MetricsSettings, policies: int, episodes: int) -> MetricsSettings:
+        """The metrics stage's estimator settings, with this stage's B when it has one (else ``metrics.bins``
+        resolved for this stage's N × M return matrices)."""
+        chosen = metrics if self.bins is None else dataclasses.replace(metrics, bins=self.bins)
+        return chosen.at_scale(policies, episodes)
 
     def request(self, study_request: RWGRequest) -> RWGRequest | None:
         """The family's RWG request for a study task (None: not a reaching arm, the family cannot run it)."""
@@ -141,7 +143,7 @@ def run_primitives_stage(cache: Cache, request: RWGRequest, metrics: MetricsSett
                          *, label: str = "", registry: Registry = DEFAULT_REGISTRY, force: bool = False,
                          progress=False) -> tuple[Artefact, bool]:
     """Compute (or reuse) one task's family returns and their metrics; returns (artefact, cache hit)."""
-    metrics = settings.estimators(metrics)
+    metrics = settings.estimators(metrics, request.settings.policies, request.settings.episodes)
     key = primitives_key(request, metrics, settings, registry)
 
     def write(directory):

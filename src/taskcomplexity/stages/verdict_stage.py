@@ -16,6 +16,10 @@ Outputs under ``<cache>/verdict/<key>/``:
 - ``welch.parquet``: Welch's test between every ordered pair of tasks for every metric with at least
   2 finite samples on each of at least 2 tasks (``metric, task_a, task_b, statistic, pvalue,
   significant``): the matrices of the paper's significance tests;
+- ``information.parquet``: per (metric, task) whose metric declares a null or a ceiling, whether the
+  value carries information, its null (mean, sd, repeats, p), the null's share of the value, and its
+  ceiling ln N (:mod:`taskcomplexity.verdict.information`); a relation judged on a value without
+  information is ``uninformative``;
 - ``sac_per_seed.parquet`` (with SAC curves): final return, normalised final return and AUC, and
   steps to 90 % per (task, variant, seed).
 
@@ -37,16 +41,28 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.study import Study
-from taskcomplexity.verdict import gather, gather_details, judge, pairwise_welch, summarise
+from taskcomplexity.verdict import (
+    gather,
+    gather_details,
+    gather_policies,
+    information,
+    judge,
+    null_means,
+    pairwise_welch,
+    summarise,
+    uninformative,
+)
 from taskcomplexity.verdict.gather import RETURN_MATRIX_STAGES
 from taskcomplexity.verdict.references import correlations, quantities, reference_scores
 
 log = logging.getLogger(__name__)
 
 STAGE = "verdict"
-VERSION = 2
+VERSION = 3
 FILES = ("verdict.parquet", "summary.parquet", "references.parquet", "correlations.parquet", "values.parquet",
-         "samples.parquet", "welch.parquet")
+         "samples.parquet", "welch.parquet", "information.parquet")
+NULLS = ("pic", "poic")
+"""Columns of the diagnostics' ``null.parquet``: the permutation nulls the information check reads."""
 SAC_FILE = "sac_per_seed.parquet"
 
 
@@ -81,6 +97,7 @@ def verdict_key(
         "algorithm_scores": {t: [a.max, a.average] for t, a in study.algorithm_scores.items()},
         "alpha": float(alpha),
         "registry": registry.signature(),
+        "information": {m.name: m.information.identity() for m in registry if m.information is not None},
     }
     for stage, keys in (stages or {}).items():  # the further policy-sample stages (occupancy, learning path)
         if keys:
@@ -146,8 +163,16 @@ def run_verdict_stage(
             tables[stage] = {t: {f: pd.read_parquet(a.file(f)) for f in files} for t, a in artefacts.items()}
         values, samples, per_seed = gather(tables, registry=registry, sac_curves=sac_curves)
         relations = study.relations_among(list(metrics))
-        table = judge(values, samples, relations, registry=registry, alpha=alpha)
-        summary = summarise(table, values, registry=registry, orders=study.orders)
+        nulls = {}
+        for task, artefact in diagnostics.items():
+            null = pd.read_parquet(artefact.file("null.parquet"))
+            nulls.update({(name, task): null[name].to_numpy() for name in NULLS if name in null.columns})
+        policies = gather_policies(tables, registry=registry)
+        checked = information(values, nulls, policies, registry=registry, alpha=alpha)
+        blank = uninformative(checked)
+        table = judge(values, samples, relations, registry=registry, alpha=alpha, uninformative=blank,
+                      nulls=null_means(checked), policies=policies)
+        summary = summarise(table, values, registry=registry, orders=study.orders, uninformative=blank)
         bounds = {t: f["metrics.parquet"].iloc[0] for t, f in tables["metrics"].items()
                   if {"r_min", "r_max", "r_mean"} <= set(f["metrics.parquet"].columns)}
         references = reference_scores(study, bounds)
@@ -156,7 +181,8 @@ def run_verdict_stage(
         welch = pairwise_welch(samples, registry=registry, alpha=alpha)
         for name, frame in (("verdict.parquet", table), ("summary.parquet", summary),
                             ("references.parquet", references), ("correlations.parquet", correlated),
-                            ("values.parquet", values), ("samples.parquet", samples), ("welch.parquet", welch)):
+                            ("values.parquet", values), ("samples.parquet", samples), ("welch.parquet", welch),
+                            ("information.parquet", checked)):
             frame.to_parquet(directory / name, index=False)
         if per_seed is not None:
             per_seed.to_parquet(directory / SAC_FILE, index=False)

@@ -5,12 +5,14 @@ Modules
 judge       every (metric, relation) outcome, per-metric counts, Kendall's τ
 references  reference scores (the study's own, Score(A) and Score(R)) and every metric's correlation with them
 gather      tidy values, samples and shown details of every registered metric from the stages' tables
+information whether each value carries information (above its permutation null, below its ceiling)
 
 The stage itself (cache key, files) is :mod:`taskcomplexity.stages.verdict_stage`.
 """
 
-from taskcomplexity.verdict.gather import gather, gather_details
+from taskcomplexity.verdict.gather import gather, gather_details, gather_policies
+from taskcomplexity.verdict.information import information, null_means, uninformative
 from taskcomplexity.verdict.judge import OUTCOMES, VERDICT_COLUMNS, by_relation, judge, pairwise_welch, summarise
 
-__all__ = ["OUTCOMES", "VERDICT_COLUMNS", "by_relation", "gather", "gather_details", "judge", "pairwise_welch",
-           "summarise"]
+__all__ = ["OUTCOMES", "VERDICT_COLUMNS", "by_relation", "gather", "gather_details", "gather_policies", "information",
+           "judge", "null_means", "pairwise_welch", "summarise", "uninformative"]

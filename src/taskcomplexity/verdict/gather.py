@@ -103,3 +103,28 @@ def gather_details(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]
                         rows.append({"task": task, "quantity": detail.name, "metric": metric.name,
                                      "value": float(point[detail.name].iloc[0])})
     return pd.DataFrame(rows, columns=["task", "quantity", "metric", "value"])
+
+
+def gather_policies(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]], *,
+                    registry: Registry) -> dict[tuple[str, str], int]:
+    """N of the sample behind each (metric, task) value of the return-matrix stages (their point files'
+    ``policies``): the ceiling ln N of a value, and the scale its N-to-resolve starts from.
+
+    Parameters
+    ----------
+    tables : as for :func:`gather`
+    registry : Registry
+
+    Returns
+    -------
+    dict of (metric, task) to int
+    """
+    found = {}
+    for stage, (point_file, _) in RETURN_MATRIX_STAGES.items():
+        for task, files in tables.get(stage, {}).items():
+            point = files[point_file]
+            if "policies" not in point.columns:
+                continue
+            for metric in registry.of_stage(stage):
+                found[(metric.name, task)] = int(point["policies"].iloc[0])
+    return found

@@ -10,25 +10,34 @@ Outcomes of one (metric, relation):
 
 - ``undefined``: a value of either task is missing or not finite (e.g. score_R of a task whose
   returns are all equal, or SAC on a task it skipped);
+- ``uninformative``: a value of either task carries no information about its task (it equals its
+  permutation null or sits at its ceiling), or most of the difference is the difference of the two
+  tasks' nulls (:mod:`taskcomplexity.verdict.information`): ordering the pair by it would measure the
+  estimator, not the tasks;
 - ``not significant``: Welch's two-sided test on the two tasks' samples gives p >= alpha, or it
   cannot be run (fewer than 2 finite samples on a side: never assumed significant);
 - ``agree`` / ``contradict``: significant, and the metric orders the pair as known / the other way.
+
+For a relation left unresolved (not significant or uninformative), ``policies_to_resolve`` estimates
+the N at which the Welch test would resolve the difference
+(:func:`~taskcomplexity.metrics.batches.policies_to_resolve`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 
 import numpy as np
 import pandas as pd
 import scipy.stats
 
 from taskcomplexity.metrics._validation import check_fraction
-from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL, welch_matrix, welch_test
+from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL, policies_to_resolve, welch_matrix, welch_test
 from taskcomplexity.metrics.registry import Registry
 from taskcomplexity.study import Relation
+from taskcomplexity.verdict.information import DIFFERENCE_NULL_SHARE, null_share_of_difference
 
-OUTCOMES = ("agree", "contradict", "not significant", "undefined")
+OUTCOMES = ("agree", "contradict", "not significant", "uninformative", "undefined")
 """Possible outcomes of one (metric, relation) verdict."""
 
 VERDICT_COLUMNS = (
@@ -46,10 +55,15 @@ VERDICT_COLUMNS = (
     "significant",
     "samples_easier",
     "samples_harder",
+    "informative_easier",
+    "informative_harder",
+    "null_share_of_difference",
+    "policies",
+    "policies_to_resolve",
 )
 """Columns of the table :func:`judge` returns."""
 
-SUMMARY_COUNTS = ("relations", "agreements", "contradictions", "not_significant", "undefined")
+SUMMARY_COUNTS = ("relations", "agreements", "contradictions", "not_significant", "uninformative", "undefined")
 """Count columns of :func:`summarise` (``relations`` counts every outcome)."""
 
 
@@ -60,6 +74,9 @@ def judge(
     *,
     registry: Registry,
     alpha: float = SIGNIFICANCE_LEVEL,
+    uninformative: Collection[tuple[str, str]] = (),
+    nulls: Mapping[tuple[str, str], float] | None = None,
+    policies: Mapping[tuple[str, str], int] | None = None,
 ) -> pd.DataFrame:
     """Every metric present in ``values`` against every relation.
 
@@ -77,6 +94,15 @@ def judge(
         Directions of the metrics; every metric of ``values`` must be registered.
     alpha : float, default 0.005
         A difference is significant when p < alpha.
+    uninformative : collection of (metric, task)
+        Values that carry no information (:func:`~taskcomplexity.verdict.information.uninformative`):
+        a relation with one on either side is ``uninformative`` whatever its test says.
+    nulls : mapping of (metric, task) to float, optional
+        Permutation-null means of values that are not net of their null
+        (:func:`~taskcomplexity.verdict.information.null_means`): a relation whose difference is more than
+        :data:`~taskcomplexity.verdict.information.DIFFERENCE_NULL_SHARE` the nulls' is ``uninformative``.
+    policies : mapping of (metric, task) to int, optional
+        N of the sample behind each value's batches, for ``policies_to_resolve`` (NaN without it).
 
     Returns
     -------
@@ -84,7 +110,11 @@ def judge(
         Columns of :data:`VERDICT_COLUMNS`: the two values (NaN when missing), the p-value (NaN
         when untested), the outcome (:data:`OUTCOMES`), the direction, ``difference`` =
         value_easier − value_harder, ``agrees`` (the values order the pair as known, strictly),
-        ``significant`` and the sample sizes tested on each side.
+        ``significant`` (the test alone), the sample sizes tested on each side, whether each value
+        carries information, the share of the difference the two nulls give (NaN without nulls),
+        N (the larger of the two sides') and, for a relation whose test is not
+        significant (whether its values carry information or not), the N at which the test would
+        resolve it (NaN otherwise or when untestable).
     """
     values, samples = _tidy(values, "values"), _tidy(samples, "samples")
     duplicated = values.duplicated(["task", "metric"])
@@ -109,20 +139,36 @@ def judge(
             a = draws.get((metric, relation.easier), np.empty(0))
             b = draws.get((metric, relation.harder), np.empty(0))
             defined = bool(np.isfinite(easy) and np.isfinite(hard))
-            pvalue = welch_test(a, b).pvalue if defined and a.size >= 2 and b.size >= 2 else float("nan")
+            testable = defined and a.size >= 2 and b.size >= 2
+            pvalue = welch_test(a, b).pvalue if testable else float("nan")
             agrees = defined and (easy > hard if direction else easy < hard)
             significant = bool(pvalue < alpha)
+            informative = ((metric, relation.easier) not in uninformative,
+                           (metric, relation.harder) not in uninformative)
+            share = null_share_of_difference(easy, hard, *((nulls or {}).get((metric, t), np.nan)
+                                                            for t in (relation.easier, relation.harder)))
             if not defined:
                 outcome = "undefined"
+            elif not all(informative) or share > DIFFERENCE_NULL_SHARE:
+                outcome = "uninformative"
             elif not significant:
                 outcome = "not significant"
             else:
                 outcome = "agree" if agrees else "contradict"
+            sizes = [(policies or {}).get((metric, t)) for t in (relation.easier, relation.harder)]
+            n = max((int(v) for v in sizes if v is not None), default=None)
+            # Unresolved: not significant, or uninformative without a significant test (a significant
+            # difference between values without information is not resolved by more policies).
+            unresolved = outcome == "not significant" or (outcome == "uninformative" and not significant)
+            resolve = policies_to_resolve(a, b, n, alpha=alpha) if testable and n and unresolved else float("nan")
             rows.append({
                 "metric": metric, "easier": relation.easier, "harder": relation.harder, "kind": relation.kind,
                 "value_easier": easy, "value_harder": hard, "pvalue": pvalue, "outcome": outcome,
                 "higher_is_easier": direction, "difference": easy - hard, "agrees": bool(agrees),
                 "significant": significant, "samples_easier": int(a.size), "samples_harder": int(b.size),
+                "informative_easier": informative[0], "informative_harder": informative[1],
+                "null_share_of_difference": share,
+                "policies": float("nan") if n is None else float(n), "policies_to_resolve": resolve,
             })
     return pd.DataFrame(rows, columns=list(VERDICT_COLUMNS))
 
@@ -133,6 +179,7 @@ def summarise(
     *,
     registry: Registry,
     orders: Mapping[str, Iterable[str]] | None = None,
+    uninformative: Collection[tuple[str, str]] = (),
 ) -> pd.DataFrame:
     """Per metric: outcome counts and Kendall's τ per known order.
 
@@ -146,16 +193,21 @@ def summarise(
         Directions and order of the metrics.
     orders : mapping of str to sequence of task ids, optional
         Named known total orders, easiest first (a study's ``orders``).
+    uninformative : collection of (metric, task)
+        Values without information: left out of Kendall's τ like missing ones.
 
     Returns
     -------
     pandas.DataFrame, one row per metric of ``values`` (registry order)
         ``metric``, the counts of :data:`SUMMARY_COUNTS`; for each order ``kendall_tau_<name>``:
         Kendall's τ-b between the known order and the order the metric implies, over the tasks
-        with a finite value (NaN with fewer than 2; +1 = exactly as known, −1 = reversed).
+        with a finite, informative value (NaN with fewer than 2; +1 = exactly as known, −1 = reversed).
     """
     values = _tidy(values, "values")
     finite = values[np.isfinite(values["value"].to_numpy(dtype=np.float64))]
+    if uninformative:
+        kept = [(m, t) not in uninformative for m, t in zip(finite["metric"], finite["task"], strict=True)]
+        finite = finite[kept]
     points = finite.set_index(["metric", "task"])["value"]
     rows = []
     for metric in registry.order(values["metric"]):
@@ -165,6 +217,7 @@ def summarise(
                "agreements": int((outcomes == "agree").sum()),
                "contradictions": int((outcomes == "contradict").sum()),
                "not_significant": int((outcomes == "not significant").sum()),
+               "uninformative": int((outcomes == "uninformative").sum()),
                "undefined": int((outcomes == "undefined").sum())}
         for name, order in (orders or {}).items():
             tasks = [task for task in order if (metric, task) in points.index]
