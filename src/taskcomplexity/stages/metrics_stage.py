@@ -27,8 +27,8 @@ from taskcomplexity import metrics as est
 from taskcomplexity.config import result_identity, setting
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
-from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.metrics.temperature import POICSearch
 from taskcomplexity.stages.cache import Artefact, Cache
