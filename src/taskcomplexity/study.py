@@ -117,6 +117,11 @@ class PublishedScale:
         return (policies, episodes, bins) != (self.policies, self.episodes, self.bins)
 
 
+PAPER_SCALE = PublishedScale(policies=10_000, episodes=500, bins=100_000, source="Table 1 of the paper")
+"""N, M and B of the AAMAS paper's Table 1: the scale a study without a ``published`` block of its own is
+compared with (``study/seven_tasks.yaml`` declares the same block; a test holds the two together)."""
+
+
 @dataclass(frozen=True)
 class Study:
     """A study: tasks, known relations, total orders and reference scores.

@@ -19,21 +19,23 @@ DIAGNOSTICS = DiagnosticsSettings(repeats=4, knn_max_samples=2000)
 
 @pytest.fixture(scope="module")
 def run_stages():
-    """``run_stages(root, study, requests, *, diagnostics=True, sac_curves=None, registry=...)`` → artefacts.
+    """``run_stages(root, study, requests, *, diagnostics=True, sac_curves=None, registry=..., settings=SETTINGS)``
+    → artefacts.
 
     Returns a dict with ``cache``, ``results``, ``diagnostics`` (or None) and ``verdict`` (the artefact).
     """
 
-    def run(root: Path, study, requests, *, diagnostics=True, sac_curves=None, registry=DEFAULT_REGISTRY):
+    def run(root: Path, study, requests, *, diagnostics=True, sac_curves=None, registry=DEFAULT_REGISTRY,
+            settings=SETTINGS):
         cache = Cache(Path(root) / "cache")
-        results = study_metrics(cache, list(requests), SETTINGS, names=list(study.ids)[: len(requests)],
+        results = study_metrics(cache, list(requests), settings, names=list(study.ids)[: len(requests)],
                                 registry=registry)
         found = None
         if diagnostics:
-            found = study_diagnostics(cache, {r.task_id: r.rwg for r in results}, SETTINGS, DIAGNOSTICS,
+            found = study_diagnostics(cache, {r.task_id: r.rwg for r in results}, settings, DIAGNOSTICS,
                                       registry=registry)
         verdict, _ = run_verdict_stage(cache, study, {r.task_id: r.metrics for r in results}, diagnostics=found,
-                                       sac_curves=sac_curves, alpha=SETTINGS.alpha, registry=registry)
+                                       sac_curves=sac_curves, alpha=settings.alpha, registry=registry)
         return {"cache": cache, "results": results, "diagnostics": found, "verdict": verdict}
 
     return run

@@ -214,3 +214,33 @@ def test_an_unknown_study_network_is_one_line_naming_the_options(compose_config)
     cfg = compose_config("study=classic_control", "study.network=pic_h9_9")
     with pytest.raises(ConfigError, match=r"study\.network=pic_h9_9 is not a known network option \(allowed: "):
         study_requests(cfg)
+
+
+def test_the_seven_task_study_declares_the_papers_scale(compose_config):
+    from taskcomplexity.cli import study_from
+    from taskcomplexity.study import PAPER_SCALE
+
+    assert study_from(compose_config()).published == PAPER_SCALE
+
+
+@pytest.mark.parametrize(("overrides", "bins"), [
+    ((), 100_000),                                  # Furuta et al.'s B, pinned by the study at its N = M = 1000
+    (("metrics.bins=5000",), 5000),                 # a typed B is honoured
+    (("study.policies=100",), 100 * 1000 // 50),    # off the protocol's N, M: the paper's ratio
+])
+def test_metrics_bins_auto_resolves_per_study_protocol(compose_config, overrides, bins):
+    from taskcomplexity.cli import metrics_settings_from_config, study_from
+
+    cfg = compose_config("study=classic_control", *overrides)
+    study = study_from(cfg)
+    settings = metrics_settings_from_config(cfg, study)
+    n = study.policies
+    assert settings.at_scale(n, study.episodes).bins == bins
+
+
+def test_metrics_bins_refuses_anything_but_an_integer_or_auto(compose_config):
+    from taskcomplexity.cli import metrics_settings_from_config
+
+    for value, shown in (("many", "'many'"), ("1", "1")):
+        with pytest.raises(ConfigError, match=rf"metrics\.bins must be an integer >= 2 \(B\) or auto .*got {shown}"):
+            metrics_settings_from_config(compose_config(f"metrics.bins={value}"))

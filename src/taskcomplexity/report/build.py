@@ -34,24 +34,30 @@ from taskcomplexity.report.html import Document, write_html
 from taskcomplexity.report.markdown import render_markdown
 from taskcomplexity.report.methods import methods
 from taskcomplexity.report.writer import Writer
-from taskcomplexity.study import Study
+from taskcomplexity.study import PAPER_SCALE, Study
 
 
 def scale_banner(data) -> str | None:
-    """A warning when the metrics are not at the scale of the study's published table (None when they are,
-    or when the study has none)."""
-    published = data.study.published
-    if published is None or data.study.kind == "variants":
+    """A warning when the metrics are not at the scale of the study's published table, or, for a study without
+    one, below the scale of the paper's Table 1 (None otherwise, and for ablations)."""
+    if data.study.kind == "variants":
         return None
+    published = data.study.published
     bins = int(data.results[data.tasks[0]].metrics.manifest.get("config", {}).get("bins", 0))
     scales = {(int(p), int(e)) for p, e in zip(data.metrics["policies"], data.metrics["episodes"], strict=True)}
-    if all(not published.differs(n, m, bins) for n, m in scales):
+    if published is not None and all(not published.differs(n, m, bins) for n, m in scales):
+        return None
+    reference = published or PAPER_SCALE
+    if published is None and all(n >= reference.policies and m >= reference.episodes for n, m in scales):
         return None
     here = "; ".join(f"N = {n:,}, M = {m:,}" for n, m in sorted(scales)) + f", B = {bins:,}"
-    return (f"These numbers are at {here}, not at the scale of {published.source} (N = {published.policies:,}, "
-            f"M = {published.episodes:,}, B = {published.bins:,}). PIC's histogram estimator depends on N, M and B, "
-            f"so its values here are not comparable with that table; experiment=published (make run) computes "
-            "them at that scale.")
+    where = "not at" if published is not None else "below"
+    advice = ("experiment=published (make run) computes them at that scale" if published is not None else
+              "the verdict's information check says, per task and relation, whether a value carries information "
+              "or only its estimator's bias")
+    return (f"These numbers are at {here}, {where} the scale of {reference.source} (N = {reference.policies:,}, "
+            f"M = {reference.episodes:,}, B = {reference.bins:,}). PIC's histogram estimator depends on N, M and B, "
+            f"so its values here are not comparable with that table; {advice}.")
 
 
 def build_report(

@@ -2,21 +2,72 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import num, pvalue
+from taskcomplexity.report.format import num, pvalue, significant_int
 from taskcomplexity.report.verdict_tables import survival_tables
 from taskcomplexity.verdict.references import reference_label
 
 
-def _count(summary: pd.DataFrame, metric: str) -> tuple[int, int]:
+def _count(summary: pd.DataFrame, metric: str) -> dict[str, int]:
     row = summary.set_index("metric").loc[metric]
-    return int(row["agreements"]), int(row["contradictions"])
+    return {"agree": int(row["agreements"]), "contradict": int(row["contradictions"]),
+            "uninformative": int(row.get("uninformative", 0))}
+
+
+def plural(count: int, noun: str, plural_form: str | None = None) -> str:
+    """``"1 relation"``, ``"2 relations"`` (``plural_form`` for irregular nouns)."""
+    return f"{count} {noun if count == 1 else (plural_form or noun + 's')}"
+
+
+def share(count: int, total: int, noun: str) -> str:
+    """``"2 of 7 tasks"``; ``"both tasks"`` / ``"all 7 tasks"`` / ``"its only task"`` when every one counts."""
+    if count == total:
+        return f"its only {noun}" if total == 1 else (f"both {noun}s" if total == 2 else f"all {total} {noun}s")
+    return f"{count} of {plural(total, noun)}"
+
+
+def information_sentences(data: StudyData) -> list[str]:
+    """One sentence per primary metric whose verdicts here measure its estimator: on how many tasks it
+    equals its permutation null or sits at its ceiling, and on how many relations that leaves it
+    uninformative (empty when every primary verdict rests on values with information)."""
+    verdict, registry = data.verdict["verdict"], data.registry
+    checked = data.verdict.get("information", pd.DataFrame(columns=["metric", "task", "reason", "informative"]))
+    sentences = []
+    for metric in (m for m in registry if m.primary):
+        rows = verdict[verdict["metric"] == metric.name]
+        blank = int((rows["outcome"] == "uninformative").sum())
+        if not blank:
+            continue
+        mine = checked[checked["metric"] == metric.name]
+        tasks = len(mine)
+        parts = []
+        for cause, words in (("permutation null", "equals its permutation null"),
+                             ("ceiling", "sits at its ceiling ln N")):
+            hit = int(mine["reason"].str.contains(cause).sum())
+            if hit:
+                parts.append(f"{words} on {share(hit, tasks, 'task')}")
+        nulls_only = int(((rows["outcome"] == "uninformative") & rows["informative_easier"].astype(bool)
+                          & rows["informative_harder"].astype(bool)).sum())
+        if nulls_only:
+            more = " more" if parts else ""
+            parts.append(f"on {share(nulls_only, len(rows), 'relation')}{more} the difference between the two tasks "
+                         "is mostly the difference of their permutation nulls")
+        subject = f"{metric.label} " + ", and ".join(parts) if parts else f"{metric.label} carries no information here"
+        if parts and parts[0].startswith("on "):
+            subject = f"For {metric.label}, " + ", and ".join(parts)
+        sentences.append(f"{subject}: its verdict on {share(blank, len(rows), 'relation')} measures the estimator, "
+                         "not the tasks (uninformative).")
+    return sentences
 
 
 def headline(data: StudyData, *, alpha: float) -> list[str]:
     """Plain-text sentences; the first one or two are the headline.
+
+    When a primary metric's verdicts rest on values without information (its permutation null, its
+    ceiling), that comes first, before any count of agreements.
 
     Parameters
     ----------
@@ -31,44 +82,99 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
         if correlated:
             return correlated + ["The study gives no relation (easier, harder, kind) to judge, so there is no "
                                  "verdict by relation."]
-        return [f"The study gives no relation to judge between its {len(data.tasks)} "
-                f"task{'s' if len(data.tasks) != 1 else ''}, so there is no verdict: the page shows the metrics of "
-                "each task. Add relations (easier, harder, kind) to the study file to judge them."]
+        return [f"The study gives no relation to judge between its {plural(len(data.tasks), 'task')}, so there is "
+                "no verdict: the page shows the metrics of each task. Add relations (easier, harder, kind) to the "
+                "study file to judge them."]
     relations = verdict[["easier", "harder"]].drop_duplicates().shape[0]
-    scored = summary.assign(net=summary["agreements"] - summary["contradictions"],
-                            label=summary["metric"].map(registry.label))
-    best = scored.sort_values(["net", "agreements"], ascending=False, kind="stable").iloc[0]
-    worst = scored.sort_values(["contradictions", "net"], ascending=[False, True], kind="stable").iloc[0]
-    sentences = []
+    sentences = information_sentences(data)
     primary = [m.name for m in registry if m.primary and m.name in set(summary["metric"])]
     if primary:
-        parts = [f"{registry.label(m)} agrees with {a} and contradicts {c}" for m in primary
-                 for a, c in [_count(summary, m)]]
-        rest = "not significant or undefined" if (verdict["outcome"] == "undefined").any() else "not significant"
-        sentences.append(f"Against the {relations} known complexity relations, " + "; ".join(parts)
-                         + f" (Welch's test, p < {alpha:g}; the rest are {rest}).")
-    if worst["contradictions"] > 0:
-        example = verdict[(verdict["metric"] == worst["metric"]) & (verdict["outcome"] == "contradict")].iloc[0]
-        contradiction = (f"; {worst['label']} contradicts it most often ({int(worst['contradictions'])} of "
-                         f"{int(worst['relations'])}): for example, it rates {data.name(example['harder'])} easier "
-                         f"than {data.name(example['easier'])}")
-    else:
-        contradiction = "; no metric contradicts it significantly"
-    sentences.append(f"Of all {len(summary)} measures, {best['label']} agrees with the known order most often "
-                     f"({int(best['agreements'])} of {int(best['relations'])}){contradiction}.")
-    sac = scored[scored["metric"].map(lambda m: m in registry and registry[m].stage == "sac")]
+        parts = []
+        for m in primary:
+            counts = _count(summary, m)
+            if counts["uninformative"] == relations:
+                parts.append(f"{registry.label(m)} is uninformative on {'it' if relations == 1 else 'every one'}")
+                continue
+            part = f"{registry.label(m)} agrees with {counts['agree']} and contradicts {counts['contradict']}"
+            if counts["uninformative"]:
+                part += f" and is uninformative on {counts['uninformative']}"
+            parts.append(part)
+        chosen = verdict[verdict["metric"].isin(primary)]
+        rest = [o for o in ("not significant", "undefined") if (chosen["outcome"] == o).any()]
+        known = ("Against the known complexity relation" if relations == 1
+                 else f"Against the {relations} known complexity relations")
+        sentences.append(f"{known}, " + "; ".join(parts) + f" (Welch's test, p < {alpha:g}"
+                         + (f"; the rest are {' or '.join(rest)})." if rest else ")."))
+    sentences.append(best_measure_sentence(data))
+    sac = summary[summary["metric"].map(lambda m: m in registry and registry[m].stage == "sac")]
     if sac.empty:
         sentences.append("SAC curves were not computed, so no empirical (training) order is checked.")
     else:
         first = sac.iloc[0]
         judged = int(first["relations"]) - int(first["undefined"])
-        sentences.append(f"The empirical order of training ({first['label']}) agrees with {int(first['agreements'])} "
-                         f"of {judged} relations it could judge.")
+        sentences.append(f"The empirical order of training ({registry.label(first['metric'])}) agrees with "
+                         f"{int(first['agreements'])} of the {plural(judged, 'relation')} it could judge.")
+    sentences += resolve_sentences(data)
     sentences += reference_sentences(data)
     for quantity, table in survival_tables(data).items():
         others = list(table.columns[2:-1])
-        sentences.append(f"{int((table['Survives'] == 'yes').sum())} of {len(table)} verdicts on {quantity} "
-                         f"survive a change of estimator ({', '.join(others)}).")
+        kept, total = int((table["Survives"] == "yes").sum()), len(table)
+        if total == 1:
+            verdicts = f"The verdict on {quantity} {'survives' if kept else 'does not survive'}"
+        else:
+            verdicts = (f"{'None' if kept == 0 else kept} of the {total} verdicts on {quantity} "
+                        f"{'survives' if kept <= 1 else 'survive'}")
+        sentences.append(f"{verdicts} a change of estimator ({', '.join(others)}).")
+    return sentences
+
+
+def best_measure_sentence(data: StudyData) -> str:
+    """Which measure agrees with the known relations most often, among those on one scale across tasks (a raw
+    mean return in each task's own reward units is never promoted), and which contradicts them most often."""
+    verdict, summary, registry = data.verdict["verdict"], data.verdict["summary"], data.registry
+    comparable = summary[summary["metric"].map(lambda m: m not in registry or registry[m].comparable_across_tasks)]
+    scored = comparable.assign(net=comparable["agreements"] - comparable["contradictions"],
+                               label=comparable["metric"].map(registry.label))
+    best = scored.sort_values(["net", "agreements"], ascending=False, kind="stable").iloc[0]
+    worst = scored.sort_values(["contradictions", "net"], ascending=[False, True], kind="stable").iloc[0]
+    if worst["contradictions"] > 0:
+        example = verdict[(verdict["metric"] == worst["metric"]) & (verdict["outcome"] == "contradict")].iloc[0]
+        often = (f" most often ({int(worst['contradictions'])} of {int(worst['relations'])})"
+                 if int(worst["relations"]) > 1 else "")
+        contradiction = (f"{worst['label']} contradicts them{often}: for example, it rates "
+                         f"{data.name(example['harder'])} easier than {data.name(example['easier'])}")
+    else:
+        contradiction = "no measure contradicts them significantly"
+    left_out = len(summary) - len(comparable)
+    among = (f"Of the {plural(len(comparable), 'measure')} on one scale across tasks"
+             + (f" ({left_out} in each task's own reward units left out)" if left_out else ""))
+    if int(best["agreements"]) == 0:
+        return f"{among}, none agrees significantly with any known relation; {contradiction}."
+    if int(best["relations"]) == 1:
+        return f"{among}, {best['label']} agrees with the known relation; {contradiction.replace('them', 'it')}."
+    return (f"{among}, {best['label']} agrees with the known relations most often ({int(best['agreements'])} of "
+            f"{int(best['relations'])}); {contradiction}.")
+
+
+def resolve_sentences(data: StudyData) -> list[str]:
+    """For each primary metric with relations not significant (on values with information): the N (at this M)
+    at which the Welch test would resolve them, from the verdict's estimate (the batch sd falling as N^-1/2).
+    The verdict table gives the estimate of every unresolved relation, uninformative ones included."""
+    verdict, registry = data.verdict["verdict"], data.registry
+    sentences = []
+    for metric in (m for m in registry if m.primary):
+        rows = verdict[(verdict["metric"] == metric.name) & (verdict["outcome"] == "not significant")
+                       & np.isfinite(verdict["policies_to_resolve"])
+                       & (verdict["policies_to_resolve"] > verdict["policies"])]
+        if rows.empty:
+            continue
+        n = int(rows["policies"].max())
+        needs = sorted(rows["policies_to_resolve"])
+        span = (f"N ≈ {significant_int(needs[0])}" if len(needs) == 1 else
+                f"N ≈ {significant_int(needs[0])} to {significant_int(needs[-1])}")
+        sentences.append(f"More sampling: {plural(len(rows), 'unresolved relation')} of {metric.label} would be "
+                         f"resolved at {span} policies (now N = {n:,}, same M; assuming the batches' sd falls as "
+                         "N^-1/2 and the difference stays as measured).")
     return sentences
 
 
