@@ -58,7 +58,7 @@ def test_the_page_uses_the_study_labels_and_says_what_is_missing(pair):
     assert list(table1.columns) == ["Task", "PIC", "PIC null share", "POIC", "POIC null share"]  # no groups
     assert table1["Task"].tolist() == ["Cart-pole", "Pendulum"]
     assert "SAC curves were not computed" in html
-    assert "it rates" in html or "no metric contradicts it" in html
+    assert "it rates" in html or "no measure contradicts it significantly" in html
 
 
 def test_a_task_colour_from_the_study_reaches_the_figures(pair):

@@ -47,8 +47,10 @@ def test_metrics_and_diagnostics_keys_follow_their_declarations():
     from taskcomplexity.stages.metrics_stage import MetricsSettings
 
     _one_at_a_time(MetricsSettings(), {"bins": 500, "temperature_range": (1e-3, 1e3), "resamples": 10, "batches": 4,
-                                       "alpha": 0.05, "seed": 3},
-                   {"alpha"}, lambda s: keys.stage_key("metrics", 1, s.identity()))
+                                       "alpha": 0.05, "seed": 3, "pinned": (1000, 1000, 100_000)},
+                   {"alpha", "pinned"}, lambda s: keys.stage_key("metrics", 1, s.identity()))
+    # the key holds the resolved B: auto at the paper's ratio hashes as the same integer typed
+    assert MetricsSettings().at_scale(400, 50).identity() == MetricsSettings(bins=400).identity()
     _one_at_a_time(DiagnosticsSettings(), {"repeats": 3, "bins_sweep": (10, 100), "subsample_fractions": (0.5, 1.0),
                                            "knn_neighbors": 4, "knn_max_samples": 1000, "knn_episodes_per_policy": 9,
                                            "seed": 2},

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from taskcomplexity.verdict import OUTCOMES
+
 ROOT = Path(__file__).resolve().parents[2]
 
 PACKAGE = textwrap.dedent('''
@@ -70,7 +72,7 @@ def test_a_researchers_own_env_and_study_run_through_to_a_verdict(tmp_path):
     verdict = pd.read_csv(outputs / "reports" / "lab" / "tables" / "verdict_tidy.csv")
     judged = verdict[(verdict["easier"] == "calm") & (verdict["harder"] == "noisy")]
     assert {"pic", "poic"} <= set(judged["metric"])
-    assert set(judged["outcome"]) <= {"agree", "contradict", "not significant", "undefined"}
+    assert set(judged["outcome"]) <= set(OUTCOMES)
     assert (judged["kind"] == "noise").all()
     # the two entries are different computations: same id, different constructor arguments
     returns = sorted((outputs / "cache" / "rwg").glob("*/returns.parquet"))

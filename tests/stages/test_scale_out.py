@@ -186,7 +186,8 @@ def seeded_outputs(tmp_path_factory):
         (RWG, "arm.links.0.length=-0.5", "error: arm.links[0].length must be a finite number > 0, got -0.5"),
         (RWG, "arm.torque_scale=[-30.0]", "error: arm.torque_scale[0] must be a finite number > 0, got -30.0"),
         (RWG, "rwg.shard=5", "error: rwg.shard must be in [0, 0] (rwg.shards=1), got 5"),
-        (METRICS, "metrics.bins=1", "error: metrics.bins must be an integer >= 2 (B), got 1"),
+        (METRICS, "metrics.bins=1", "error: metrics.bins must be an integer >= 2 (B) or auto (N·M / 50, or the study's pinned B at its "
+                                          "published N and M), got 1"),
         (METRICS, "metrics.temperature_range=[2.0,1.0]", "error: metrics.temperature_range must be [low, high] with 0 < low < high, got [2.0, 1.0]"),
         (METRICS, "metrics.temperature_range=[0.0,1.0]", "error: metrics.temperature_range must be [low, high] with 0 < low < high, got [0.0, 1.0]"),
     ],

@@ -137,21 +137,22 @@ def best_measure_sentence(data: StudyData) -> str:
                                label=comparable["metric"].map(registry.label))
     best = scored.sort_values(["net", "agreements"], ascending=False, kind="stable").iloc[0]
     worst = scored.sort_values(["contradictions", "net"], ascending=[False, True], kind="stable").iloc[0]
+    them = "it" if int(worst["relations"]) == 1 else "them"
     if worst["contradictions"] > 0:
         example = verdict[(verdict["metric"] == worst["metric"]) & (verdict["outcome"] == "contradict")].iloc[0]
         often = (f" most often ({int(worst['contradictions'])} of {int(worst['relations'])})"
                  if int(worst["relations"]) > 1 else "")
-        contradiction = (f"{worst['label']} contradicts them{often}: for example, it rates "
+        contradiction = (f"{worst['label']} contradicts {them}{often}: for example, it rates "
                          f"{data.name(example['harder'])} easier than {data.name(example['easier'])}")
     else:
-        contradiction = "no measure contradicts them significantly"
+        contradiction = f"no measure contradicts {them} significantly"
     left_out = len(summary) - len(comparable)
     among = (f"Of the {plural(len(comparable), 'measure')} on one scale across tasks"
              + (f" ({left_out} in each task's own reward units left out)" if left_out else ""))
     if int(best["agreements"]) == 0:
         return f"{among}, none agrees significantly with any known relation; {contradiction}."
     if int(best["relations"]) == 1:
-        return f"{among}, {best['label']} agrees with the known relation; {contradiction.replace('them', 'it')}."
+        return f"{among}, {best['label']} agrees with the known relation; {contradiction}."
     return (f"{among}, {best['label']} agrees with the known relations most often ({int(best['agreements'])} of "
             f"{int(best['relations'])}); {contradiction}.")
 
