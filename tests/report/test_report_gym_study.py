@@ -117,3 +117,20 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
     assert "Against Score(A) across 3 tasks, PIC r = " in text
     assert pd.read_csv(tables / "reference_correlations.csv")["Quantity"].iloc[0] == "PIC"
     assert (index.parent / "figures" / "reference_scatter.png").stat().st_size > 1000
+
+
+def test_the_methods_give_directions_of_the_computed_metrics_only_in_one_wording(pair):
+    import html as html_lib
+    import re
+
+    index, found = pair
+    page = html_lib.unescape(index.read_text(encoding="utf-8"))
+    directions = re.search(r"<dt>Directions</dt><dd>(.*?)</dd>", page).group(1)
+    computed = [m for m in DEFAULT_REGISTRY if m.stage in ("metrics", "diagnostics")]  # no SAC, no actor
+    for metric in DEFAULT_REGISTRY:
+        named = re.search(rf"(^|; |, ){re.escape(metric.label)}(:|,)", directions) is not None
+        assert named == (metric in computed), metric.label
+    assert "= harder" not in directions
+    assert directions.count("higher = easier") + directions.count("lower = easier") == len(
+        {(m.higher_is_easier, m.why) for m in computed})  # metrics sharing a direction and a reason share a line
+    assert len(directions) < 1500  # 3 226 characters when every registered metric was listed: not ~40 lines about metrics the study did not compute

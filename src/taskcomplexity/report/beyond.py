@@ -16,6 +16,7 @@ from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import MISSING, mean_sd
 from taskcomplexity.report.html import Paragraph, Section
+from taskcomplexity.report.methods import direction
 from taskcomplexity.report.writer import Writer
 from taskcomplexity.verdict import by_relation
 
@@ -97,10 +98,9 @@ def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataF
     if not proposed or data.verdict["verdict"].empty:
         return None
     blocks = [Paragraph(" ".join(open_question_sentences(data)))]
-    blocks += [Paragraph(f"{m.label}: {'higher' if not m.higher_is_easier else 'lower'} = harder ({m.why}).")
-               for m in proposed]
     verdict = data.verdict["verdict"]
     computed = [m.name for m in proposed if (verdict["metric"] == m.name).any()]
+    blocks += [Paragraph(f"{m.label}: {direction(m)} ({m.why}).") for m in proposed if m.name in computed]
     compared = [m.name for m in data.registry if m.primary] + computed
     table = by_relation(verdict, compared)
     if computed:
