@@ -134,3 +134,15 @@ def test_the_methods_give_directions_of_the_computed_metrics_only_in_one_wording
     assert directions.count("higher = easier") + directions.count("lower = easier") == len(
         {(m.higher_is_easier, m.why) for m in computed})  # metrics sharing a direction and a reason share a line
     assert len(directions) < 1500  # 3 226 characters when every registered metric was listed: not ~40 lines about metrics the study did not compute
+
+
+def test_counts_outside_the_headline_read_right_with_one_relation(pair):
+    import re
+
+    index, _ = pair
+    page = index.read_text(encoding="utf-8")
+    body = re.sub(r"<[^>]+>", " ", page[page.index('class="methods"'):])  # headline.py's words are not judged here
+    assert "PIC and POIC contradict" in body or "PIC or POIC contradicts the one known relation" in body
+    assert not re.search(r"\b1 (known |complexity |[a-z]+ )?(relations|tasks|policies|episodes|cells)\b", body)
+    assert not re.search(r"\b[01] of (the )?1\b", body)
+    assert "across 2 tasks" in body

@@ -69,8 +69,9 @@ def plural(count: int, noun: str, many: str | None = None) -> str:
 def of_total(part: int, total: int, noun: str, many: str | None = None) -> str:
     """``part`` of ``total`` things in words that read right at every count.
 
-    "2 of the 7 known relations", "none of the 7 known relations", "all 7 known relations", and with one
-    thing "the one known relation" (part 1) or "no known relation" (part 0): never "0 of 1".
+    "2 of the 7 known relations", "none of the 7 known relations", "all 7 known relations", "both known
+    relations", and with one thing "the one known relation" (part 1) or "no known relation" (part 0): never
+    "0 of 1".
     """
     part, total = int(part), int(total)
     if total == 1:
@@ -79,7 +80,7 @@ def of_total(part: int, total: int, noun: str, many: str | None = None) -> str:
     if part == 0:
         return f"none of the {total} {things}"
     if part == total:
-        return f"all {total} {things}"
+        return f"both {things}" if total == 2 else f"all {total} {things}"
     return f"{part} of the {total} {things}"
 
 

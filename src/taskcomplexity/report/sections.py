@@ -76,7 +76,7 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
             [(fig.score_scatter_figure(scored, data.styles, y=(first, reference_label(first)),
                                        panels=metric_panels(data, exclude=())), "reference_scatter")],
             f"{reference_label(first)} against every metric.",
-            f"Each point is a task; panel titles give Pearson's r and its p-value across the {len(scored)} tasks "
+            f"Each point is a task; panel titles give Pearson's r and its p-value across {plural(len(scored), 'task')} "
             "on the metric's value as it is (the table above uses its easiness, which differs in sign only for a "
             "metric where lower is easier)."))
     return tuple(blocks)
@@ -89,11 +89,12 @@ def headline_matrix(writer: Writer, data: StudyData, *, alpha: float) -> TableBl
     matrix, tips = verdict_matrix(data, chosen)
     registry = data.registry
     primary = [m for m in chosen if m in registry and registry[m].primary]
-    shown = (f"Columns: {joined(registry.label(m) for m in primary)}" if primary else "Columns:")
+    shown = f"Columns: the primary metrics ({joined(registry.label(m) for m in primary)})" if primary else ""
     families = "; ".join(f"{family}: {registry.label(m)}" for family, m in representatives.items())
     if families:
-        shown += (("; and " if primary else " ") + "for every other family of metrics the one that agrees most "
-                  f"often with the known relations (net of contradictions) — {families}")
+        shown += (" and, for" if primary else "Columns: for") + (
+            " every other family of metrics, the one that agrees most often with the known relations net of "
+            f"contradictions, ties to the first registered ({families})")
     left = len(dict.fromkeys(data.verdict["verdict"]["metric"])) - len(chosen)
     appendix = (f"; the full matrix of all {plural(len(chosen) + left, 'metric')} is in the appendix"
                 if left else "")
@@ -173,7 +174,7 @@ def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
                                        panels=panels), "score_scatter")],
             "Normalised score against every metric.",
             "Each point is a task (marker: its study group). Panel titles give Pearson's r and its p-value "
-            f"across the {len(data.tasks)} tasks; with so few points only strong correlations are meaningful.",
+            f"across {plural(len(data.tasks), 'task')}; with so few points only strong correlations are meaningful.",
         ))
     blocks.append(writer.table(statistics_table(data), "rwg_statistics", "Random-policy statistics.",
                                "Worst policy mean r_min, best return r_max (sum of rewards), the metrics of the "
@@ -234,8 +235,8 @@ def diagnostics_section(writer: Writer, data: StudyData) -> Section:
     tasks = [t for t in data.tasks if t in data.diagnostics]
     d = data.diagnostics
     styles = {t: data.styles[t] for t in tasks}
-    knn = joined(f"{int(d[t]['estimators']['knn_policies'].iloc[0])} policies × "
-                 f"{int(d[t]['estimators']['knn_episodes'].iloc[0])} episodes"
+    knn = joined(f"{plural(d[t]['estimators']['knn_policies'].iloc[0], 'policy', 'policies')} × "
+                 f"{plural(d[t]['estimators']['knn_episodes'].iloc[0], 'episode')}"
                  for t in tasks if "knn_policies" in d[t]["estimators"].columns)
     others = joined(m.label for m in data.registry.of_stage("diagnostics"))
     blocks = [
