@@ -83,18 +83,21 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
 
 
 def headline_matrix(writer: Writer, data: StudyData, *, alpha: float) -> TableBlock:
-    """The verdict box's relation × metric matrix: the primary metrics and one metric per other family
-    (:func:`~taskcomplexity.report.verdict_tables.headline_metrics`), narrow enough for the page."""
-    chosen, representatives = headline_metrics(data)
+    """The verdict box's relation × metric matrix: the primary metrics, each family's most agreeing metric and
+    the most contradicting one (:func:`~taskcomplexity.report.verdict_tables.headline_metrics`), narrow enough
+    for the page."""
+    chosen, representatives, contradicting = headline_metrics(data)
     matrix, tips = verdict_matrix(data, chosen)
     registry = data.registry
     primary = [m for m in chosen if m in registry and registry[m].primary]
-    shown = f"Columns: the primary metrics ({joined(registry.label(m) for m in primary)})" if primary else ""
-    families = "; ".join(f"{family}: {registry.label(m)}" for family, m in representatives.items())
-    if families:
-        shown += (" and, for" if primary else "Columns: for") + (
-            " every other family of metrics, the one that agrees most often with the known relations net of "
-            f"contradictions, ties to the first registered ({families})")
+    parts = [f"the primary metrics ({joined(registry.label(m) for m in primary)})"] if primary else []
+    if representatives:
+        parts.append("the metric of each family that agrees most often with the known relations, net of "
+                     "contradictions (" + "; ".join(f"{family}: {registry.label(m)}"
+                                                    for family, m in representatives.items()) + ")")
+    if contradicting is not None:
+        parts.append(f"the metric that contradicts them most often ({registry.label(contradicting)})")
+    shown = "Columns: " + "; ".join(parts)
     left = len(dict.fromkeys(data.verdict["verdict"]["metric"])) - len(chosen)
     appendix = (f"; the full matrix of all {plural(len(chosen) + left, 'metric')} is in the appendix"
                 if left else "")
@@ -103,8 +106,9 @@ def headline_matrix(writer: Writer, data: StudyData, *, alpha: float) -> TableBl
         matrix, "verdict_headline", "Verdict by known relation.",
         f"{shown}{appendix}. {outcome_legend(outcomes)}. Hover a cell for the values and p-value "
         f"(Welch's test, significant at p < {alpha:g}).", tips,
-        files=(outcome_words(matrix), f"Outcome of the primary metrics and of each family's most agreeing metric "
-                                      f"on every known relation (significant at p < {alpha:g}, Welch's t-test)."),
+        files=(outcome_words(matrix), "Outcome of the primary metrics, each family's most agreeing metric and the "
+                                      "most contradicting one on every known relation (significant at p < "
+                                      f"{alpha:g}, Welch's t-test)."),
     )
 
 

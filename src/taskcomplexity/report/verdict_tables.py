@@ -22,38 +22,40 @@ def relation_name(data: StudyData, easier: str, harder: str) -> str:
     return f"{data.name(easier)} < {data.name(harder)}"
 
 
-def headline_metrics(data: StudyData) -> tuple[list[str], dict[str, str]]:
-    """The metrics of the verdict box's matrix: every primary metric, and for each family without one the
-    metric of that family that agrees with the known relations most often.
+def headline_metrics(data: StudyData) -> tuple[list[str], dict[str, str], str | None]:
+    """The metrics of the verdict box's matrix: every primary metric, each family's most agreeing other
+    metric, and the metric that contradicts the known relations most often.
 
-    "Most often" is the most agreements net of contradictions, then the most agreements, then registry
-    order; a family whose every outcome is undefined is left out. The full matrix (every metric) is the
-    appendix's.
+    "Most agreeing" is the most agreements net of contradictions, then the most agreements, then registry
+    order; "contradicts most often" the most contradictions, then the fewest net agreements, then registry
+    order (the orders the headline's words use). A metric whose every outcome is undefined is not a
+    candidate. The full matrix (every metric) is the appendix's.
 
     Returns
     -------
-    (metrics, representatives) : list of str, dict of str to str
-        The chosen metrics in registry order, and family → the metric chosen for it (families without a
-        primary metric only).
+    (metrics, representatives, contradicting) : list of str, dict of str to str, str or None
+        The chosen metrics in registry order; family → its most agreeing metric other than a primary one;
+        the metric that contradicts most often (None when none contradicts).
     """
     verdict, registry = data.verdict["verdict"], data.registry
     judged = registry.order(verdict["metric"])
     family = {m: registry[m].family if m in registry else "other" for m in judged}
     primary = [m for m in judged if m in registry and registry[m].primary]
-    covered = {family[m] for m in primary}
     counts = verdict.assign(agree=verdict["outcome"] == "agree", contradict=verdict["outcome"] == "contradict",
                             defined=verdict["outcome"] != "undefined").groupby("metric", sort=False)[
         ["agree", "contradict", "defined"]].sum()
+    candidates = [m for m in judged if counts.loc[m, "defined"] > 0]
+    net = {m: int(counts.loc[m, "agree"] - counts.loc[m, "contradict"]) for m in candidates}
     representatives = {}
     for name in dict.fromkeys(family.values()):
-        if name in covered:
-            continue
-        members = [m for m in judged if family[m] == name and counts.loc[m, "defined"] > 0]
+        members = [m for m in candidates if family[m] == name and m not in primary]
         if members:
-            representatives[name] = min(members, key=lambda m: (
-                -(counts.loc[m, "agree"] - counts.loc[m, "contradict"]), -counts.loc[m, "agree"], judged.index(m)))
-    chosen = set(primary) | set(representatives.values())
-    return [m for m in judged if m in chosen], representatives
+            representatives[name] = min(members, key=lambda m: (-net[m], -counts.loc[m, "agree"], judged.index(m)))
+    against = [m for m in candidates if counts.loc[m, "contradict"] > 0]
+    contradicting = min(against, key=lambda m: (-counts.loc[m, "contradict"], net[m], judged.index(m)),
+                        default=None)
+    chosen = set(primary) | set(representatives.values()) | ({contradicting} - {None})
+    return [m for m in judged if m in chosen], representatives, contradicting
 
 
 def verdict_matrix(data: StudyData, metrics: list[str] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
