@@ -114,7 +114,15 @@ def test_the_sac_legends_sit_below_the_curves_and_the_step_axis_reads_in_k():
         assert legend.y1 < ax.xaxis.label.get_window_extent().y0  # under the axis label, so off the curves
         assert legend.y1 < ax.get_window_extent().y0
         assert legend.y0 >= figure.bbox.y0  # still on the figure
-        assert _tick_labels(ax.xaxis) == ["1k", "10k", "0.1M"]
+        assert _tick_labels(ax.xaxis) == ["1k", "10k", "0.1M"]  # decades only over three decades
+    short = pd.DataFrame(rows).query("env_step in (1000, 10000)").replace({"env_step": {1000: 100, 10_000: 300}})
+    figure = fig.sac_curves_figure(short, styles)  # 100 to 300 steps: less than a decade
+    figure.draw_without_rendering()
+    ax = figure.axes[0]
+    shown = _tick_labels(ax.xaxis) + [t.get_text() for t, v in zip(ax.xaxis.get_minorticklabels(),
+                                                                  ax.xaxis.get_minorticklocs(), strict=True)
+                                      if t.get_text() and ax.get_xlim()[0] <= v <= ax.get_xlim()[1]]
+    assert "300" in shown and all(label.isdigit() for label in shown), shown
 
 
 def test_the_learning_path_step_axis_prints_small_step_counts_as_integers():

@@ -91,13 +91,17 @@ def step_label(value: float) -> str:
 
 
 def step_axis(axis, *, log: bool = False) -> None:
-    """Readable environment-step ticks on ``axis`` (an Axes' ``xaxis``): :func:`step_label` at whole steps,
-    and on a log axis the decades only (no minor labels)."""
+    """Readable environment-step ticks on ``axis`` (an Axes' ``xaxis``): :func:`step_label` at whole steps;
+    on a log axis the decades, and the minor ticks too when the axis spans less than a decade."""
     if log:
+        def minor(value: float, _) -> str:
+            low, high = axis.get_view_interval()
+            return step_label(value) if high < 10 * max(low, 1e-9) else ""
+
         axis.set_major_locator(mpl.ticker.LogLocator(base=10, numticks=8))
-        axis.set_minor_formatter(mpl.ticker.NullFormatter())
+        axis.set_minor_formatter(mpl.ticker.FuncFormatter(minor))
     else:
-        axis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5, integer=True))
+        axis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5, integer=True, steps=[1, 2, 2.5, 5, 10]))
     axis.set_major_formatter(mpl.ticker.FuncFormatter(lambda value, _: step_label(value)))
 
 
