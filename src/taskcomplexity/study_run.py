@@ -57,9 +57,12 @@ def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
     if job is not None:
         from hydra.core.hydra_config import HydraConfig
 
+        from taskcomplexity.report.labels import task_styles
         from taskcomplexity.report.sweep import JOB_FILE
 
-        record = {"study": name, "overrides": list(HydraConfig.get().overrides.task),
+        labels = {t: style.name for t, style in task_styles(artefacts.study, [r.task_id for r in artefacts.results])
+                  .items()}
+        record = {"study": name, "overrides": list(HydraConfig.get().overrides.task), "labels": labels,
                   "verdict": str(artefacts.verdict.path.resolve()), "report": str(index.resolve())}
         (job / JOB_FILE).write_text(json.dumps(record, indent=1), encoding="utf-8")
     elapsed = time.time() - started

@@ -31,9 +31,9 @@ RELATIONS, TASKS = SEVEN_TASKS.relations, SEVEN_TASKS.ids
 
 FIGURES = ("rwg_trios", "bootstrap", "score_scatter", "sac_curves", "diagnostics_bins", "diagnostics_null",
            "ablation_1_link_l_1_0_m_dense")
-TABLES = ("table1", "bootstrap_intervals", "welch_pic", "welch_poic", "rwg_statistics", "sac_summary",
-          "verdict_matrix", "verdict_summary", "verdict", "diagnostics_estimators", "diagnostics_bins",
-          "verdict_survival")
+TABLES = ("verdict_headline", "table1", "bootstrap_intervals", "welch_pic", "welch_poic", "rwg_statistics", "sac_summary",
+          "verdict_summary", "diagnostics_estimators", "diagnostics_bins", "verdict_survival", "verdict_matrix",
+          "verdict")
 
 
 def synthetic_curves(tasks, seeds=(0, 1, 2)) -> pd.DataFrame:
@@ -235,3 +235,35 @@ def test_without_sac_curves_or_diagnostics_the_page_says_so(study, run_stages, t
     verdict = pd.read_csv(tmp_path / "report" / "tables" / "verdict.csv")
     assert set(verdict["Metric"]) == {m.label for m in DEFAULT_REGISTRY.of_stage("metrics")}
     assert len(verdict) == len(DEFAULT_REGISTRY.of_stage("metrics"))  # one relation between the two tasks
+
+
+def test_the_headline_matrix_shows_the_primary_metrics_each_familys_best_and_the_worst_metric(report, study):
+    verdict = pd.read_parquet(study[1]["verdict"].file("verdict.parquet"))
+    headline = pd.read_csv(report.parent / "tables" / "verdict_headline.csv")
+    expected = {m.name for m in DEFAULT_REGISTRY if m.primary}
+    best, worst = {}, None  # family -> (net, agreements, -position, name); (contradictions, -net, -position, name)
+    for position, metric in enumerate(DEFAULT_REGISTRY):
+        own = verdict[verdict["metric"] == metric.name]
+        if own.empty or (own["outcome"] == "undefined").all():
+            continue
+        agree, contradict = (own["outcome"] == "agree").sum(), (own["outcome"] == "contradict").sum()
+        if not metric.primary:
+            best[metric.family] = max(best.get(metric.family, (-99, 0, 0, "")),
+                                      (agree - contradict, agree, -position, metric.name))
+        if contradict:
+            worst = max(worst or (0, 0, 0, ""), (contradict, contradict - agree, -position, metric.name))
+    expected |= {b[-1] for b in best.values()} | {worst[-1]}
+    assert sorted(best) == ["SAC", "estimator", "random policies"]  # no actor, no primitives: no "beyond" family
+    expected = [m.short for m in DEFAULT_REGISTRY if m.name in expected]
+    assert 5 <= len(expected) <= 7
+    assert list(headline.columns) == ["Known relation (easier < harder)", "Kind", *expected]
+    assert len(headline) == len(RELATIONS)
+    # the appendix keeps every metric
+    full = pd.read_csv(report.parent / "tables" / "verdict_matrix.csv")
+    assert len(full.columns) == 2 + verdict["metric"].nunique() > len(headline.columns)
+    html = report.read_text(encoding="utf-8")
+    box = html[html.index('class="verdict"'):html.index('class="methods"')]
+    first = box[box.index("<table"):box.index("</table>")]
+    assert first.count("<th ") == len(headline.columns)  # the box's matrix is the narrow one…
+    assert "verdict_matrix.csv" not in box and "verdict_headline.csv" in box  # …and the full one is elsewhere
+    assert html.index("verdict_matrix.csv") > html.index("Appendix")

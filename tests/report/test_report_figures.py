@@ -88,3 +88,53 @@ def test_a_study_without_groups_gets_one_sac_panel():
             for t in ("cart", "pend") for step in (1000, 2000)]
     figure = fig.sac_curves_figure(pd.DataFrame(rows), task_styles(study))
     assert len(figure.axes) == 1 and len(figure.axes[0].get_lines()) == 2
+
+
+def test_step_labels_are_readable_at_every_scale():
+    values = [0, 80, 500, 2000, 10_000, 12_500, 80_000, 500_000, 1_000_000, 2_500_000]
+    assert [fig.step_label(v) for v in values] == ["0", "80", "500", "2k", "10k", "12.5k", "80k", "0.5M", "1M",
+                                                   "2.5M"]
+
+
+def _tick_labels(axis) -> list[str]:
+    lo, hi = axis.get_view_interval()
+    return [t.get_text() for t, v in zip(axis.get_ticklabels(), axis.get_ticklocs(), strict=True)
+            if lo <= v <= hi and t.get_text()]
+
+
+def test_the_sac_legends_sit_below_the_curves_and_the_step_axis_reads_in_k():
+    styles = task_styles(SEVEN_TASKS)
+    rows = [{"task": t, "variant": v, "seed": seed, "env_step": step, "eval/return_mean": float(step + seed)}
+            for t in SEVEN_TASKS.ids for v in (("sac", "sac+her") if t.endswith("sparse") else ("sac",))
+            for seed in (0, 1) for step in (0, 1000, 10_000, 100_000)]
+    figure = fig.sac_curves_figure(pd.DataFrame(rows), styles)
+    figure.draw_without_rendering()
+    for ax in figure.axes:
+        legend = ax.get_legend().get_window_extent()
+        assert legend.y1 < ax.xaxis.label.get_window_extent().y0  # under the axis label, so off the curves
+        assert legend.y1 < ax.get_window_extent().y0
+        assert legend.y0 >= figure.bbox.y0  # still on the figure
+        assert _tick_labels(ax.xaxis) == ["1k", "10k", "0.1M"]  # decades only over three decades
+    short = pd.DataFrame(rows).query("env_step in (1000, 10000)").replace({"env_step": {1000: 100, 10_000: 300}})
+    figure = fig.sac_curves_figure(short, styles)  # 100 to 300 steps: less than a decade
+    figure.draw_without_rendering()
+    ax = figure.axes[0]
+    shown = _tick_labels(ax.xaxis) + [t.get_text() for t, v in zip(ax.xaxis.get_minorticklabels(),
+                                                                  ax.xaxis.get_minorticklocs(), strict=True)
+                                      if t.get_text() and ax.get_xlim()[0] <= v <= ax.get_xlim()[1]]
+    assert "300" in shown and all(label.isdigit() for label in shown), shown
+
+
+def test_the_learning_path_step_axis_prints_small_step_counts_as_integers():
+    styles = task_styles(SEVEN_TASKS)
+    path = pd.DataFrame({"step": [0, 20, 40, 60, 80], "pic": [1.0, 1.1, 1.2, 1.1, 1.3],
+                         "poic": [0.1, 0.2, 0.2, 0.3, 0.3]})
+    figure = fig.learning_path_figure({"two_link-dense": path}, styles)
+    figure.draw_without_rendering()
+    for ax in figure.axes:
+        labels = _tick_labels(ax.xaxis)
+        assert labels and all(label.isdigit() for label in labels), labels  # not "0.08k"
+        assert "80" in labels
+    large = fig.learning_path_figure({"two_link-dense": path.assign(step=path["step"] * 1000)}, styles)
+    large.draw_without_rendering()
+    assert _tick_labels(large.axes[0].xaxis)[:3] == ["0", "20k", "40k"]

@@ -117,3 +117,32 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
     assert "Against Score(A) across 3 tasks, PIC r = " in text
     assert pd.read_csv(tables / "reference_correlations.csv")["Quantity"].iloc[0] == "PIC"
     assert (index.parent / "figures" / "reference_scatter.png").stat().st_size > 1000
+
+
+def test_the_methods_give_directions_of_the_computed_metrics_only_in_one_wording(pair):
+    import html as html_lib
+    import re
+
+    index, found = pair
+    page = html_lib.unescape(index.read_text(encoding="utf-8"))
+    directions = re.search(r"<dt>Directions</dt><dd>(.*?)</dd>", page).group(1)
+    computed = [m for m in DEFAULT_REGISTRY if m.stage in ("metrics", "diagnostics")]  # no SAC, no actor
+    for metric in DEFAULT_REGISTRY:
+        named = re.search(rf"(^|; |, ){re.escape(metric.label)}(:|,)", directions) is not None
+        assert named == (metric in computed), metric.label
+    assert "= harder" not in directions
+    assert directions.count("higher = easier") + directions.count("lower = easier") == len(
+        {(m.higher_is_easier, m.why) for m in computed})  # metrics sharing a direction and a reason share a line
+    assert len(directions) < 1500  # 3 226 characters when every registered metric was listed: not ~40 lines about metrics the study did not compute
+
+
+def test_counts_outside_the_headline_read_right_with_one_relation(pair):
+    import re
+
+    index, _ = pair
+    page = index.read_text(encoding="utf-8")
+    body = re.sub(r"<[^>]+>", " ", page[page.index('class="methods"'):])  # headline.py's words are not judged here
+    assert "PIC and POIC contradict" in body or "PIC or POIC contradicts the one known relation" in body
+    assert not re.search(r"\b1 (known |complexity |[a-z]+ )?(relations|tasks|policies|episodes|cells)\b", body)
+    assert not re.search(r"\b[01] of (the )?1\b", body)
+    assert "across 2 tasks" in body

@@ -55,3 +55,19 @@ def test_tables_carry_their_number_caption_and_file_links():
     page = render_html(document)
     assert '<b>Table 3.</b> <b>Verdict.</b> Caption.' in page
     assert '<a href="tables/v.csv">csv</a>' in page
+
+
+def test_every_outcome_gets_its_mark_colour_and_legend_from_one_dict():
+    from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, legend, mark
+
+    assert [mark(o) for o in ("agree", "contradict", "not significant", "uninformative", "undefined")] == [
+        "✓", "✗", "–", "○", "?"]
+    text = legend(["uninformative", "agree", "agree"])
+    assert text == ("✓ the metric orders the pair as known and the difference is significant; "
+                    "○ uninformative: a value equals its null or sits at its ceiling")
+    html = table_html(pd.DataFrame({"PIC": [mark("uninformative"), mark("agree")]}))
+    assert '<td class="symbol uninformative">○</td>' in html and '<td class="symbol agree">✓</td>' in html
+    assert set(OUTCOME_DISPLAY) >= {"agree", "contradict", "not significant", "uninformative", "undefined"}
+    # an outcome the dict does not know yet still gets a centred neutral mark and its name in the legend
+    assert legend(["agree", "tied"]).endswith("; · tied")
+    assert '<td class="symbol ns">·</td>' in table_html(pd.DataFrame({"PIC": [mark("tied"), mark("agree")]}))

@@ -14,8 +14,9 @@ import pandas as pd
 from taskcomplexity.metrics.registry import BEYOND
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import MISSING, mean_sd
+from taskcomplexity.report.format import MISSING, mean_sd, of_total
 from taskcomplexity.report.html import Paragraph, Section
+from taskcomplexity.report.methods import direction
 from taskcomplexity.report.writer import Writer
 from taskcomplexity.verdict import by_relation
 
@@ -42,13 +43,14 @@ def open_question_sentences(data: StudyData) -> list[str]:
     relations = verdict[["easier", "harder", "kind"]].drop_duplicates()
     failing = verdict[verdict["metric"].isin(primary) & (verdict["outcome"] == "contradict")]
     failing = failing[["easier", "harder", "kind"]].drop_duplicates()
+    known = "known relation"
+    either = names.replace(" and ", " or ")
     if failing.empty:
-        sentences = [f"{names} contradict none of the {len(relations)} known relations here, so no proposed metric "
-                     "has a contradiction to resolve; their own records follow."]
+        sentences = [f"{names} contradict {of_total(0, len(relations), known)} here, so no proposed metric has a "
+                     "contradiction to resolve; their own records follow."]
     else:
         listed = "; ".join(_relation(data, r) for _, r in failing.iterrows())
-        sentences = [f"{names.replace(' and ', ' or ')} contradicts {len(failing)} of the {len(relations)} known "
-                     f"relations ({listed})."]
+        sentences = [f"{either} contradicts {of_total(len(failing), len(relations), known)} ({listed})."]
     for metric in proposed:
         own = verdict[verdict["metric"] == metric.name]
         label = metric.label[:1].upper() + metric.label[1:]
@@ -57,13 +59,16 @@ def open_question_sentences(data: StudyData) -> list[str]:
             sentences.append(f"{label} was not computed for this report: {needs}.")
             continue
         agree, contradict = int((own["outcome"] == "agree").sum()), int((own["outcome"] == "contradict").sum())
-        sentence = f"{label} agrees with {agree} and contradicts {contradict} of the {len(own)} known relations"
+        if len(own) == 1:
+            sentence = f"{label} on the one {known}: {own['outcome'].iloc[0]}"
+        else:
+            sentence = f"{label} agrees with {of_total(agree, len(own), known)} and contradicts {contradict}"
         if not failing.empty:
             rescued = failing.merge(own, on=["easier", "harder", "kind"])
             rescued = rescued[rescued["outcome"] == "agree"]
             where = "; ".join(_relation(data, r) for _, r in rescued.iterrows())
-            sentence += (f"; where {names.replace(' and ', ' or ')} contradicts, it agrees on {len(rescued)} of "
-                         f"{len(failing)}" + (f" ({where})" if where else ""))
+            sentence += (f"; where {either} contradicts, it agrees on "
+                         f"{of_total(len(rescued), len(failing), 'such relation')}" + (f" ({where})" if where else ""))
         sentences.append(sentence + ".")
     return sentences
 
@@ -97,10 +102,9 @@ def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataF
     if not proposed or data.verdict["verdict"].empty:
         return None
     blocks = [Paragraph(" ".join(open_question_sentences(data)))]
-    blocks += [Paragraph(f"{m.label}: {'higher' if not m.higher_is_easier else 'lower'} = harder ({m.why}).")
-               for m in proposed]
     verdict = data.verdict["verdict"]
     computed = [m.name for m in proposed if (verdict["metric"] == m.name).any()]
+    blocks += [Paragraph(f"{m.label}: {direction(m)} ({m.why}).") for m in proposed if m.name in computed]
     compared = [m.name for m in data.registry if m.primary] + computed
     table = by_relation(verdict, compared)
     if computed:

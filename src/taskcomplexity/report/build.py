@@ -28,7 +28,7 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report import sections
 from taskcomplexity.report.beyond import beyond_section
 from taskcomplexity.report.data import load_study_data
-from taskcomplexity.report.format import joined
+from taskcomplexity.report.format import joined, plural
 from taskcomplexity.report.headline import headline
 from taskcomplexity.report.html import Document, write_html
 from taskcomplexity.report.markdown import render_markdown
@@ -132,8 +132,7 @@ def build_report(
     page_sections.append(sections.appendix_section(writer, data))
     n = joined(int(v) for v in data.metrics["policies"])
     m = joined(int(v) for v in data.metrics["episodes"])
-    count = f"{len(data.tasks)} task{'s' if len(data.tasks) != 1 else ''}"
-    subtitle = (f"{count}, N = {n} random policies × M = {m} episodes each; "
+    subtitle = (f"{plural(len(data.tasks), 'task')}, N = {n} random policies × M = {m} episodes each; "
                 f"generated {dt.datetime.now().strftime('%Y-%m-%d %H:%M')}")
     document = Document(title, subtitle, tuple(headline(data, alpha=alpha)), boxed,
                         methods(data, sac_curves, alpha=alpha), tuple(page_sections), banner=scale_banner(data))

@@ -36,6 +36,9 @@ MAX_EPISODE_DOTS = 200_000
 
 VARIANT_STYLES = {"sac": "-", "sac+her": "--"}
 
+LEGEND_BELOW = -0.24
+"""Top of a panel's legend placed under it, in axes fractions: below the tick labels and the axis label."""
+
 _RC = {
     "font.size": 8,
     "axes.titlesize": 8.5,
@@ -75,6 +78,31 @@ def _figure(rows: int, columns: int, height: float, **kwargs) -> tuple[Figure, n
     figure = Figure(figsize=(WIDTH, height), layout="constrained")
     axes = figure.subplots(rows, columns, squeeze=False, **kwargs)
     return figure, axes
+
+
+def step_label(value: float) -> str:
+    """An environment-step count as an axis shows it: "0", "80", "500", "2k", "12.5k", "0.5M", "1M"."""
+    size = abs(value)
+    if size < 1000:
+        return f"{value:.0f}" if float(value).is_integer() else f"{value:g}"
+    if size < 100_000:
+        return f"{value / 1000:.3g}k"
+    return f"{value / 1e6:.3g}M"
+
+
+def step_axis(axis, *, log: bool = False) -> None:
+    """Readable environment-step ticks on ``axis`` (an Axes' ``xaxis``): :func:`step_label` at whole steps;
+    on a log axis the decades, and the minor ticks too when the axis spans less than a decade."""
+    if log:
+        def minor(value: float, _) -> str:
+            low, high = axis.get_view_interval()
+            return step_label(value) if high < 10 * max(low, 1e-9) else ""
+
+        axis.set_major_locator(mpl.ticker.LogLocator(base=10, numticks=8))
+        axis.set_minor_formatter(mpl.ticker.FuncFormatter(minor))
+    else:
+        axis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5, integer=True, steps=[1, 2, 2.5, 5, 10]))
+    axis.set_major_formatter(mpl.ticker.FuncFormatter(lambda value, _: step_label(value)))
 
 
 # (a) The RWG trio -----------------------------------------------------------------------------
@@ -356,7 +384,8 @@ def sac_curves_figure(curves: pd.DataFrame, styles: Mapping[str, TaskStyle]) -> 
     table = curves[curves["eval/return_mean"].notna() & (curves["env_step"] > 0)]
     groups = list(dict.fromkeys(s.group for s in styles.values()))
     with paper_style():
-        figure, axes = _figure(1, len(groups), 2.8)
+        tasks_per_panel = max(sum(1 for s in styles.values() if s.group == g) for g in groups)
+        figure, axes = _figure(1, len(groups), 2.8 + 0.14 * tasks_per_panel)  # legend rows: ≤ 2 variants, 2 columns
         for ax, group in zip(axes[0], groups, strict=True):
             members = [t for t, s in styles.items() if s.group == group]
             drawn = 0
@@ -373,12 +402,13 @@ def sac_curves_figure(curves: pd.DataFrame, styles: Mapping[str, TaskStyle]) -> 
                                     linewidth=0)
                     drawn += 1
             ax.set_xscale("log")
+            step_axis(ax.xaxis, log=True)
             if group is not None:
                 ax.set_title(group)
             ax.set_xlabel("environment steps (log scale)")
             ax.set_ylabel(f"evaluation {RETURN_LABEL}")
-            if drawn:
-                ax.legend(frameon=False, loc="upper left")
+            if drawn:  # below the panel, under its axis label: never over the curves
+                ax.legend(frameon=False, loc="upper center", bbox_to_anchor=(0.5, LEGEND_BELOW), ncol=2)
             else:
                 ax.text(0.5, 0.5, "no SAC runs", transform=ax.transAxes, ha="center", va="center")
     return figure
@@ -398,9 +428,7 @@ def learning_path_figure(paths: Mapping[str, pd.DataFrame], styles: Mapping[str,
                 ax.plot(path["step"], path[column], marker=style.marker, markersize=3, color=style.colour,
                         label=style.name)
                 ax.axhline(path[column].mean(), color=style.colour, linestyle=":", linewidth=0.8)
-            ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
-            ax.xaxis.set_major_formatter(mpl.ticker.FuncFormatter(
-                lambda value, _: f"{value / 1000:g}k" if value else "0"))
+            step_axis(ax.xaxis)
             ax.set_xlabel("SAC environment steps at the snapshot")
             ax.set_ylabel(f"{label}ₖ around the actor (nats)")
             ax.set_title(f"learning-path {label}")

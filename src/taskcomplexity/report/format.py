@@ -57,6 +57,33 @@ def mean_sd(mean: float, sd: float, digits: int = 3) -> str:
     return f"{mean:.{places}f} ± {sd:.{places}f}" if np.isfinite(sd) else f"{mean:.{places}f}"
 
 
+def plural(count: int, noun: str, many: str | None = None) -> str:
+    """``count`` and ``noun`` in the number it needs: "1 relation", "0 relations", "3 tasks".
+
+    ``many``: the plural when it is not ``noun + "s"`` (e.g. ``plural(n, "policy", "policies")``).
+    """
+    count = int(count)
+    return f"{count} {noun if count == 1 else (many or noun + 's')}"
+
+
+def of_total(part: int, total: int, noun: str, many: str | None = None) -> str:
+    """``part`` of ``total`` things in words that read right at every count.
+
+    "2 of the 7 known relations", "none of the 7 known relations", "all 7 known relations", "both known
+    relations", and with one thing "the one known relation" (part 1) or "no known relation" (part 0): never
+    "0 of 1".
+    """
+    part, total = int(part), int(total)
+    if total == 1:
+        return f"the one {noun}" if part == 1 else f"no {noun}"
+    things = many or noun + "s"
+    if part == 0:
+        return f"none of the {total} {things}"
+    if part == total:
+        return f"both {things}" if total == 2 else f"all {total} {things}"
+    return f"{part} of the {total} {things}"
+
+
 def joined(values) -> str:
     """Distinct values in order, comma-separated."""
     return ", ".join(dict.fromkeys(str(v) for v in values))

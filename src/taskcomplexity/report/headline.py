@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import num, pvalue, significant_int
+from taskcomplexity.report.format import num, of_total, plural, pvalue, significant_int
 from taskcomplexity.report.verdict_tables import survival_tables
 from taskcomplexity.verdict.references import reference_label
 
@@ -15,18 +15,6 @@ def _count(summary: pd.DataFrame, metric: str) -> dict[str, int]:
     row = summary.set_index("metric").loc[metric]
     return {"agree": int(row["agreements"]), "contradict": int(row["contradictions"]),
             "uninformative": int(row.get("uninformative", 0))}
-
-
-def plural(count: int, noun: str, plural_form: str | None = None) -> str:
-    """``"1 relation"``, ``"2 relations"`` (``plural_form`` for irregular nouns)."""
-    return f"{count} {noun if count == 1 else (plural_form or noun + 's')}"
-
-
-def share(count: int, total: int, noun: str) -> str:
-    """``"2 of 7 tasks"``; ``"both tasks"`` / ``"all 7 tasks"`` / ``"its only task"`` when every one counts."""
-    if count == total:
-        return f"its only {noun}" if total == 1 else (f"both {noun}s" if total == 2 else f"all {total} {noun}s")
-    return f"{count} of {plural(total, noun)}"
 
 
 def information_sentences(data: StudyData) -> list[str]:
@@ -48,17 +36,17 @@ def information_sentences(data: StudyData) -> list[str]:
                              ("ceiling", "sits at its ceiling ln N")):
             hit = int(mine["reason"].str.contains(cause).sum())
             if hit:
-                parts.append(f"{words} on {share(hit, tasks, 'task')}")
+                parts.append(f"{words} on {of_total(hit, tasks, 'task')}")
         nulls_only = int(((rows["outcome"] == "uninformative") & rows["informative_easier"].astype(bool)
                           & rows["informative_harder"].astype(bool)).sum())
         if nulls_only:
             more = " more" if parts else ""
-            parts.append(f"on {share(nulls_only, len(rows), 'relation')}{more} the difference between the two tasks "
+            parts.append(f"on {of_total(nulls_only, len(rows), 'relation')}{more} the difference between the two tasks "
                          "is mostly the difference of their permutation nulls")
         subject = f"{metric.label} " + ", and ".join(parts) if parts else f"{metric.label} carries no information here"
         if parts and parts[0].startswith("on "):
             subject = f"For {metric.label}, " + ", and ".join(parts)
-        sentences.append(f"{subject}: its verdict on {share(blank, len(rows), 'relation')} measures the estimator, "
+        sentences.append(f"{subject}: its verdict on {of_total(blank, len(rows), 'relation')} measures the estimator, "
                          "not the tasks (uninformative).")
     return sentences
 

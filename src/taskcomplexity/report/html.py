@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, UNKNOWN_MARK
+
 
 @dataclass(frozen=True)
 class Paragraph:
@@ -115,20 +117,15 @@ class Document:
 
 
 OUTCOME_CLASSES = {
-    "agree": "agree",
-    "contradict": "contradict",
-    "not significant": "ns",
-    "✓": "agree",
-    "✗": "contradict",
-    "–": "ns",
-    "?": "ns",
-    "undefined": "ns",
+    **{outcome: shown.css for outcome, shown in OUTCOME_DISPLAY.items()},
+    **{shown.mark: shown.css for shown in OUTCOME_DISPLAY.values()},
+    UNKNOWN_MARK: "ns",
     "yes": "agree",
     "no": "contradict",
 }
-"""Cell text that gets a colour class (verdict outcomes)."""
+"""Cell text that gets a colour class (verdict outcomes, their marks, and a survival table's yes/no)."""
 
-MARKS = frozenset({"✓", "✗", "–", "?"})
+MARKS = frozenset({shown.mark for shown in OUTCOME_DISPLAY.values()} | {UNKNOWN_MARK})
 """One-character outcome marks; a column of them is centred."""
 
 STYLE = """
@@ -148,6 +145,7 @@ p { margin: .6em 0; text-align: justify; hyphens: auto; }
 .verdict .label { font-variant: small-caps; letter-spacing: .05em; color: var(--muted); margin: 0; }
 .verdict .lead { font-size: 1.18em; line-height: 1.45; margin: .3em 0 .6em; text-align: left; }
 .verdict .more { color: #333; }
+.verdict td.text { white-space: normal; }
 .methods { background: #f6f5f1; border: 1px solid #dcd9cf; padding: .7em 1.1em; margin: 1.5em 0;
            font-size: .88em; }
 .methods h3 { margin: .1em 0 .4em; font-size: 1em; font-variant: small-caps; letter-spacing: .05em; }
@@ -175,6 +173,7 @@ tbody tr:nth-child(even) { background: #fafafa; }
 td.agree { color: var(--agree); font-weight: 600; }
 td.contradict { color: var(--contradict); font-weight: 600; }
 td.ns { color: #8a8a8a; }
+td.uninformative { color: #b9770e; }
 footer { margin-top: 3em; font-size: .8em; color: var(--muted); border-top: 1px solid #ccc; padding-top: .6em; }
 """
 

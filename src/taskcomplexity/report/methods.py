@@ -2,10 +2,35 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 
+from taskcomplexity.metrics.registry import Metric
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import joined
+
+
+def direction(metric: Metric) -> str:
+    """"higher = easier" or "lower = easier": the one wording of a metric's direction."""
+    return f"{'higher' if metric.higher_is_easier else 'lower'} = easier"
+
+
+def computed_metrics(data: StudyData) -> list[Metric]:
+    """The registered metrics with a finite value for some task of this study (the verdict's ``values``)."""
+    values = data.verdict["values"]
+    finite = set(values.loc[np.isfinite(values["value"].to_numpy(dtype=np.float64)), "metric"])
+    return [m for m in data.registry if m.name in finite]
+
+
+def directions_text(data: StudyData) -> str:
+    """The direction of every metric this study computed, metrics sharing a direction and a reason together."""
+    groups: dict[tuple[str, str], list[str]] = {}
+    for metric in computed_metrics(data):
+        groups.setdefault((direction(metric), metric.why), []).append(metric.label)
+    if not groups:
+        return "no metric has a value in this study"
+    return "; ".join(f"{', '.join(labels)}: {way}" + (f" ({why})" if why else "")
+                     for (way, why), labels in groups.items())
 
 
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
@@ -16,8 +41,7 @@ def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -
     prior = joined(r.prior.kind + (f" (variance {r.prior.variance:g})" if r.prior.kind == "normal" else "")
                    for r in requests)
     steps = joined(getattr(r.task, "max_steps", None) or "the env's own limit of" for r in requests)
-    directions = "; ".join(f"{m.label}: higher = {'easier' if m.higher_is_easier else 'harder'}"
-                           + (f" ({m.why})" if m.why else "") for m in data.registry)
+    directions = directions_text(data)
     items = [
         ("Tasks", f"{len(data.tasks)}: " + "; ".join(data.name(t) for t in data.tasks)),
         ("Random policies", f"{network}; weight prior {prior}; deterministic actions"),

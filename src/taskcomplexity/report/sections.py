@@ -8,8 +8,9 @@ import pandas as pd
 
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData, return_matrix
-from taskcomplexity.report.format import joined, slug
-from taskcomplexity.report.html import Paragraph, Section
+from taskcomplexity.report.format import joined, plural, slug
+from taskcomplexity.report.html import Paragraph, Section, TableBlock
+from taskcomplexity.report.outcomes import legend as outcome_legend
 from taskcomplexity.report.sac_summary import format_sac_summary
 from taskcomplexity.report.tables import (
     bins_display,
@@ -21,6 +22,8 @@ from taskcomplexity.report.tables import (
 )
 from taskcomplexity.report.verdict_tables import (
     correlation_display,
+    headline_metrics,
+    outcome_words,
     reference_table,
     summary_display,
     survival_tables,
@@ -42,18 +45,7 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
     """The verdict box's tables: the relation × metric matrix and the per-metric summary."""
     blocks = []
     if len(data.verdict["verdict"]):
-        matrix, tips = verdict_matrix(data)
-        words = matrix.replace({mark: outcome for outcome, mark in {
-            "agree": "✓", "contradict": "✗", "not significant": "–", "undefined": "?"}.items()})
-        blocks.append(writer.table(
-            matrix, "verdict_matrix", "Verdict by known relation.",
-            "✓ the metric orders the pair as known and the difference is significant; ✗ it orders them the "
-            "other way, significantly; – not significant (or untested); ? undefined (a value is missing or not "
-            "finite). Hover a cell for the values and p-value; the full verdict table in the appendix lists "
-            "them.", tips,
-            files=(words, f"Outcome of every metric on every known relation (significant at p < {alpha:g}, "
-                          "Welch's t-test)."),
-        ))
+        blocks.append(headline_matrix(writer, data, alpha=alpha))
     caption = ("Counts of outcomes over the known relations" if len(data.verdict["verdict"]) else
                "The study gives no relation, so nothing is counted")
     caption += ("; Kendall's τ between each known order of the study and the metric's order (+1: exactly as "
@@ -84,10 +76,40 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
             [(fig.score_scatter_figure(scored, data.styles, y=(first, reference_label(first)),
                                        panels=metric_panels(data, exclude=())), "reference_scatter")],
             f"{reference_label(first)} against every metric.",
-            f"Each point is a task; panel titles give Pearson's r and its p-value across the {len(scored)} tasks "
+            f"Each point is a task; panel titles give Pearson's r and its p-value across {plural(len(scored), 'task')} "
             "on the metric's value as it is (the table above uses its easiness, which differs in sign only for a "
             "metric where lower is easier)."))
     return tuple(blocks)
+
+
+def headline_matrix(writer: Writer, data: StudyData, *, alpha: float) -> TableBlock:
+    """The verdict box's relation × metric matrix: the primary metrics, each family's most agreeing metric and
+    the most contradicting one (:func:`~taskcomplexity.report.verdict_tables.headline_metrics`), narrow enough
+    for the page."""
+    chosen, representatives, contradicting = headline_metrics(data)
+    matrix, tips = verdict_matrix(data, chosen)
+    registry = data.registry
+    primary = [m for m in chosen if m in registry and registry[m].primary]
+    parts = [f"the primary metrics ({joined(registry.label(m) for m in primary)})"] if primary else []
+    if representatives:
+        parts.append("the metric of each family that agrees most often with the known relations, net of "
+                     "contradictions (" + "; ".join(f"{family}: {registry.label(m)}"
+                                                    for family, m in representatives.items()) + ")")
+    if contradicting is not None:
+        parts.append(f"the metric that contradicts them most often ({registry.label(contradicting)})")
+    shown = "Columns: " + "; ".join(parts)
+    left = len(dict.fromkeys(data.verdict["verdict"]["metric"])) - len(chosen)
+    appendix = (f"; the full matrix of all {plural(len(chosen) + left, 'metric')} is in the appendix"
+                if left else "")
+    outcomes = data.verdict["verdict"].loc[data.verdict["verdict"]["metric"].isin(chosen), "outcome"]
+    return writer.table(
+        matrix, "verdict_headline", "Verdict by known relation.",
+        f"{shown}{appendix}. {outcome_legend(outcomes)}. Hover a cell for the values and p-value "
+        f"(Welch's test, significant at p < {alpha:g}).", tips,
+        files=(outcome_words(matrix), "Outcome of the primary metrics, each family's most agreeing metric and the "
+                                      "most contradicting one on every known relation (significant at p < "
+                                      f"{alpha:g}, Welch's t-test)."),
+    )
 
 
 def metric_panels(data: StudyData, *, exclude: tuple[str, ...]) -> list[tuple[str, str]]:
@@ -156,7 +178,7 @@ def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
                                        panels=panels), "score_scatter")],
             "Normalised score against every metric.",
             "Each point is a task (marker: its study group). Panel titles give Pearson's r and its p-value "
-            f"across the {len(data.tasks)} tasks; with so few points only strong correlations are meaningful.",
+            f"across {plural(len(data.tasks), 'task')}; with so few points only strong correlations are meaningful.",
         ))
     blocks.append(writer.table(statistics_table(data), "rwg_statistics", "Random-policy statistics.",
                                "Worst policy mean r_min, best return r_max (sum of rewards), the metrics of the "
@@ -217,8 +239,8 @@ def diagnostics_section(writer: Writer, data: StudyData) -> Section:
     tasks = [t for t in data.tasks if t in data.diagnostics]
     d = data.diagnostics
     styles = {t: data.styles[t] for t in tasks}
-    knn = joined(f"{int(d[t]['estimators']['knn_policies'].iloc[0])} policies × "
-                 f"{int(d[t]['estimators']['knn_episodes'].iloc[0])} episodes"
+    knn = joined(f"{plural(d[t]['estimators']['knn_policies'].iloc[0], 'policy', 'policies')} × "
+                 f"{plural(d[t]['estimators']['knn_episodes'].iloc[0], 'episode')}"
                  for t in tasks if "knn_policies" in d[t]["estimators"].columns)
     others = joined(m.label for m in data.registry.of_stage("diagnostics"))
     blocks = [
@@ -287,8 +309,14 @@ def appendix_section(writer: Writer, data: StudyData) -> Section:
         return Section("Appendix: the full verdict table", (
             Paragraph("The study gives no relation, so there is no verdict table. Its metrics per task are in "
                       "tables/verdict_values.csv."),))
+    matrix, tips = verdict_matrix(data)
+    whole = writer.table(
+        matrix, "verdict_matrix", "Verdict by known relation, every metric.",
+        f"{outcome_legend(verdict['outcome'])}. Hover a cell for the values and p-value; the table below "
+        "lists them.", tips,
+        files=(outcome_words(matrix), "Outcome of every metric on every known relation (Welch's t-test)."))
     full = writer.table(verdict_display(data), "verdict", "The full verdict.",
                         "Every (metric, known relation): the two values, the outcome and the p-value of Welch's "
                         "t-test, with the number of samples tested on each side (batches or seeds).")
-    return Section("Appendix: the full verdict table", (full,))
+    return Section("Appendix: the full verdict table", (whole, full))
 

@@ -2,16 +2,23 @@
 verdict artefacts.
 
 Each study job of a multirun records itself in ``<job dir>/study.json`` (:data:`JOB_FILE`: the study,
-its overrides, its verdict artefact and report); :func:`write_sweep_report` reads every job of a sweep
-directory and writes, under ``<sweep dir>/sweep_report/``:
+its overrides, its tasks' labels, its verdict artefact and report); :func:`write_sweep_report` reads every
+job of a sweep directory and writes, under ``<sweep dir>/sweep_report/``:
 
+- ``sweep_verdict.{md,tex,csv}``: per cell and primary metric, the counts of agree / contradict / not
+  significant (and uninformative or undefined when any) over the study's known relations, and the
+  relations it contradicts, tasks named by their labels;
 - ``sweep_correlations.{md,tex,csv}``: per cell, every metric's Pearson r with each reference score
   (Score(A), …) across the study's tasks, and the mean ± sd of r over the cells (the original PIC/POIC
   protocol's summary over its 28 architecture × prior cells);
 - ``sweep_values.{md,tex,csv}``: per task, every metric and reference score as mean ± sd over cells;
-- ``sweep_values_tidy.csv`` (cell, task, quantity, value) and ``sweep_correlations_tidy.csv`` (cell,
-  quantity, reference, r, p, …): everything the tables show;
+- ``sweep_values_tidy.csv`` (cell, task, quantity, value), ``sweep_correlations_tidy.csv`` (cell,
+  quantity, reference, r, p, …) and ``sweep_verdict_tidy.csv`` (cell, metric, relation, outcome, p):
+  everything the tables show;
 - ``README.md``: the tables in one page.
+
+A table without rows (no reference scores: no correlations; no relations: no verdict) is not written; the
+README says in one line why it is missing.
 
 A cell is named by the overrides that differ between the jobs (``network=pic_h1_4 prior=uniform``).
 """
@@ -19,14 +26,15 @@ A cell is named by the overrides that differ between the jobs (``network=pic_h1_
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.report.format import MISSING, mean_sd, num
+from taskcomplexity.report.format import MISSING, mean_sd, num, plural
+from taskcomplexity.report.outcomes import OUTCOME_DISPLAY
 from taskcomplexity.report.tables import write_table
 from taskcomplexity.verdict.references import reference_label
 
@@ -54,20 +62,78 @@ def cell_names(jobs: Sequence[dict]) -> list[str]:
             for i, p in enumerate(pairs)]
 
 
+def task_labels(jobs: Sequence[dict]) -> dict[str, str]:
+    """Task id → its label in the study, from the jobs' records (ids without one keep their id)."""
+    labels: dict[str, str] = {}
+    for job in jobs:
+        for task, label in (job.get("labels") or {}).items():
+            labels.setdefault(task, label)
+    return labels
+
+
 def sweep_tables(jobs: Sequence[dict], *, registry: Registry = DEFAULT_REGISTRY) -> dict[str, pd.DataFrame]:
-    """The tidy tables of a sweep: ``values`` (cell, task, quantity, value) and ``correlations`` (cell,
-    quantity, metric, reference, tasks, pearson_r, pearson_p, spearman_r, spearman_p), metrics only."""
-    values, correlated = [], []
+    """The tidy tables of a sweep: ``values`` (cell, task, quantity, value), ``correlations`` (cell,
+    quantity, metric, reference, tasks, pearson_r, pearson_p, spearman_r, spearman_p), metrics only, and
+    ``verdict`` (cell, metric, easier, harder, kind, outcome, pvalue)."""
+    values, correlated, verdicts = [], [], []
     for cell, job in zip(cell_names(jobs), jobs, strict=True):
         verdict = Path(job["verdict"])
         v = pd.read_parquet(verdict / "values.parquet").rename(columns={"metric": "quantity"})
         r = pd.read_parquet(verdict / "references.parquet").rename(columns={"reference": "quantity"})
-        values.append(pd.concat([v, r], ignore_index=True).assign(cell=cell))
+        values.append(pd.concat([t for t in (v, r) if not t.empty], ignore_index=True).assign(cell=cell))
         c = pd.read_parquet(verdict / "correlations.parquet")
         correlated.append(c[c["quantity"] == c["metric"]].assign(cell=cell))
+        judged = pd.read_parquet(verdict / "verdict.parquet")
+        verdicts.append(judged[["metric", "easier", "harder", "kind", "outcome", "pvalue"]].assign(cell=cell))
     values = pd.concat(values, ignore_index=True)[["cell", "task", "quantity", "value"]]
     correlated = pd.concat(correlated, ignore_index=True)
-    return {"values": values, "correlations": correlated[["cell", *correlated.columns.drop("cell")]]}
+    verdicts = pd.concat(verdicts, ignore_index=True)
+    return {"values": values, "correlations": correlated[["cell", *correlated.columns.drop("cell")]],
+            "verdict": verdicts[["cell", *verdicts.columns.drop("cell")]]}
+
+
+def verdict_table(verdicts: pd.DataFrame, *, registry: Registry = DEFAULT_REGISTRY,
+                  labels: Mapping[str, str] | None = None) -> pd.DataFrame:
+    """Per cell and primary metric: how many known relations it agrees with, contradicts, leaves not
+    significant (and, when any cell has them, uninformative or undefined), and the relations it contradicts.
+
+    Parameters
+    ----------
+    verdicts : pandas.DataFrame
+        The sweep's tidy verdict (:func:`sweep_tables`).
+    registry : Registry
+        The primary metrics (all judged metrics when none is primary) and their labels.
+    labels : mapping of task id to label, optional
+        How the relations name the tasks.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``Cell``, ``Metric``, ``Relations``, one count column per outcome shown, ``Contradicted``; no
+        rows when the study gives no relation.
+    """
+    labels = labels or {}
+    judged = registry.order(verdicts["metric"])
+    metrics = [m for m in judged if m in registry and registry[m].primary] or judged
+    chosen = verdicts[verdicts["metric"].isin(metrics)]
+    always = ("agree", "contradict", "not significant")
+    present = [o for o in OUTCOME_DISPLAY if o in always or (chosen["outcome"] == o).any()]
+    present += [o for o in dict.fromkeys(chosen["outcome"]) if o not in present]
+    rows = []
+    for cell in dict.fromkeys(chosen["cell"]):
+        for metric in metrics:
+            own = chosen[(chosen["cell"] == cell) & (chosen["metric"] == metric)]
+            if own.empty:
+                continue
+            row = {"Cell": cell, "Metric": registry.label(metric), "Relations": len(own)}
+            row.update({outcome[:1].upper() + outcome[1:]: int((own["outcome"] == outcome).sum())
+                        for outcome in present})
+            against = own[own["outcome"] == "contradict"]
+            row["Contradicted"] = "; ".join(f"{labels.get(a, a)} < {labels.get(b, b)}"
+                                            for a, b in zip(against["easier"], against["harder"], strict=True)
+                                            ) or MISSING
+            rows.append(row)
+    return pd.DataFrame(rows)
 
 
 def correlation_table(correlated: pd.DataFrame, *, registry: Registry = DEFAULT_REGISTRY) -> pd.DataFrame:
@@ -83,7 +149,8 @@ def correlation_table(correlated: pd.DataFrame, *, registry: Registry = DEFAULT_
             rows.append(row)
     for reference in references:
         chosen = correlated[correlated["reference"] == reference]
-        row = {"Cell": f"mean ± sd over {chosen['cell'].nunique()} cells", "Reference": reference_label(reference)}
+        row = {"Cell": f"mean ± sd over {plural(chosen['cell'].nunique(), 'cell')}",
+               "Reference": reference_label(reference)}
         for m in metrics:
             r = chosen.loc[chosen["metric"] == m, "pearson_r"].to_numpy(dtype=float)
             r = r[np.isfinite(r)]
@@ -93,12 +160,14 @@ def correlation_table(correlated: pd.DataFrame, *, registry: Registry = DEFAULT_
     return pd.DataFrame(rows)
 
 
-def value_table(values: pd.DataFrame, *, registry: Registry = DEFAULT_REGISTRY) -> pd.DataFrame:
-    """Per task (rows), every metric and reference score (columns) as mean ± sd over the cells."""
+def value_table(values: pd.DataFrame, *, registry: Registry = DEFAULT_REGISTRY,
+                labels: Mapping[str, str] | None = None) -> pd.DataFrame:
+    """Per task (rows, named by ``labels``), every metric and reference score (columns) as mean ± sd over the
+    cells."""
     quantities = registry.order(values["quantity"])
     rows = []
     for task, group in values.groupby("task", sort=False):
-        row = {"Task": task}
+        row = {"Task": (labels or {}).get(task, task)}
         for q in quantities:
             v = group.loc[group["quantity"] == q, "value"].to_numpy(dtype=float)
             v = v[np.isfinite(v)]
@@ -109,28 +178,51 @@ def value_table(values: pd.DataFrame, *, registry: Registry = DEFAULT_REGISTRY) 
 
 
 def write_sweep_report(sweep_dir: Path, *, registry: Registry = DEFAULT_REGISTRY) -> Path | None:
-    """Write the sweep's tables under ``<sweep_dir>/sweep_report``; return its README.md (None: no study job)."""
+    """Write the sweep's tables under ``<sweep_dir>/sweep_report``; return its README.md (None: no study job).
+
+    A table without rows is not written: the README says in one line why it is missing.
+    """
     jobs = sweep_jobs(sweep_dir)
     if not jobs:
         return None
     tables = sweep_tables(jobs, registry=registry)
+    labels = task_labels(jobs)
     out = Path(sweep_dir) / REPORT_DIR
+    out.mkdir(parents=True, exist_ok=True)
     studies = ", ".join(dict.fromkeys(j["study"] for j in jobs))
-    correlation = correlation_table(tables["correlations"], registry=registry)
-    value = value_table(tables["values"], registry=registry)
-    captions = {
-        "sweep_correlations": f"Pearson r across tasks between each metric's easiness and each reference score, "
-                              f"per cell of the sweep of {studies}, and its mean ± sd over the cells.",
-        "sweep_values": "Every metric (point estimate) and reference score per task: mean ± sd over the cells.",
-    }
-    lines = [f"# Sweep of {studies}: {len(jobs)} cells", ""]
-    for name, table in (("sweep_correlations", correlation), ("sweep_values", value)):
-        write_table(table, out, name, caption=captions[name])
-        lines += [f"**{captions[name]}**", "", table.to_markdown(index=False), ""]
+    cells = plural(len(jobs), "cell")
+    primary = [registry.label(m.name) for m in registry if m.primary]
+    shown = [
+        ("sweep_verdict", verdict_table(tables["verdict"], registry=registry, labels=labels),
+         f"Verdict per cell of the sweep of {studies}: for each primary metric ({', '.join(primary)}), how many of "
+         "the study's known relations it agrees with, contradicts or leaves not significant (Welch's test), and "
+         "the relations it contradicts.",
+         "No verdict table: the study gives no known relation between its tasks, so no cell has a verdict."),
+        ("sweep_correlations", correlation_table(tables["correlations"], registry=registry),
+         f"Pearson r across tasks between each metric's easiness and each reference score, per cell of the sweep "
+         f"of {studies}, and its mean ± sd over the cells.",
+         "No correlation table: the study gives no reference scores (reference or algorithm_scores) to correlate "
+         "the metrics with."),
+        ("sweep_values", value_table(tables["values"], registry=registry, labels=labels),
+         f"Every metric (point estimate) and reference score per task: mean ± sd over the {cells}.",
+         "No values table: no cell has a metric value."),
+    ]
+    lines = [f"# Sweep of {studies}: {cells}", ""]
+    for name, table, caption, missing in shown:
+        for stale in out.glob(f"{name}.*"):
+            stale.unlink()
+        if table.empty:
+            lines += [missing, ""]
+            continue
+        write_table(table, out, name, caption=caption)
+        lines += [f"**{caption}**", "", table.to_markdown(index=False), ""]
     lines += ["Cells and their reports:", ""] + [f"- {cell}: {job['report']}" for cell, job in
                                                   zip(cell_names(jobs), jobs, strict=True)]
-    tables["values"].to_csv(out / "sweep_values_tidy.csv", index=False)
-    tables["correlations"].to_csv(out / "sweep_correlations_tidy.csv", index=False)
+    for name, tidy in tables.items():
+        path = out / f"sweep_{name}_tidy.csv"
+        path.unlink(missing_ok=True)
+        if not tidy.empty:
+            tidy.to_csv(path, index=False)
     readme = out / "README.md"
     readme.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return readme

@@ -9,10 +9,12 @@ import pandas as pd
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import MISSING, num, percent, policies_needed, pvalue
 from taskcomplexity.report.labels import kind_label
+from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, mark
 from taskcomplexity.verdict import by_relation
 from taskcomplexity.verdict.references import reference_label
 
-SYMBOLS = {"agree": "✓", "contradict": "✗", "not significant": "–", "uninformative": "○", "undefined": "?"}
+SYMBOLS = {outcome: shown.mark for outcome, shown in OUTCOME_DISPLAY.items()}
+"""Outcome → its matrix mark (from :data:`~taskcomplexity.report.outcomes.OUTCOME_DISPLAY`)."""
 RELATION = "Known relation (easier < harder)"
 
 
@@ -20,18 +22,61 @@ def relation_name(data: StudyData, easier: str, harder: str) -> str:
     return f"{data.name(easier)} < {data.name(harder)}"
 
 
-def verdict_matrix(data: StudyData) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Relations × metrics of outcome symbols, and the tooltip text of every cell.
+def headline_metrics(data: StudyData) -> tuple[list[str], dict[str, str], str | None]:
+    """The metrics of the verdict box's matrix: every primary metric, each family's most agreeing other
+    metric, and the metric that contradicts the known relations most often.
+
+    "Most agreeing" is the most agreements net of contradictions, then the most agreements, then registry
+    order; "contradicts most often" the most contradictions, then the fewest net agreements, then registry
+    order (the orders the headline's words use). A metric whose every outcome is undefined is not a
+    candidate. The full matrix (every metric) is the appendix's.
+
+    Returns
+    -------
+    (metrics, representatives, contradicting) : list of str, dict of str to str, str or None
+        The chosen metrics in registry order; family → its most agreeing metric other than a primary one;
+        the metric that contradicts most often (None when none contradicts).
+    """
+    verdict, registry = data.verdict["verdict"], data.registry
+    judged = registry.order(verdict["metric"])
+    family = {m: registry[m].family if m in registry else "other" for m in judged}
+    primary = [m for m in judged if m in registry and registry[m].primary]
+    counts = verdict.assign(agree=verdict["outcome"] == "agree", contradict=verdict["outcome"] == "contradict",
+                            defined=verdict["outcome"] != "undefined").groupby("metric", sort=False)[
+        ["agree", "contradict", "defined"]].sum()
+    candidates = [m for m in judged if counts.loc[m, "defined"] > 0]
+    net = {m: int(counts.loc[m, "agree"] - counts.loc[m, "contradict"]) for m in candidates}
+    representatives = {}
+    for name in dict.fromkeys(family.values()):
+        members = [m for m in candidates if family[m] == name and m not in primary]
+        if members:
+            representatives[name] = min(members, key=lambda m: (-net[m], -counts.loc[m, "agree"], judged.index(m)))
+    against = [m for m in candidates if counts.loc[m, "contradict"] > 0]
+    contradicting = min(against, key=lambda m: (-counts.loc[m, "contradict"], net[m], judged.index(m)),
+                        default=None)
+    chosen = set(primary) | set(representatives.values()) | ({contradicting} - {None})
+    return [m for m in judged if m in chosen], representatives, contradicting
+
+
+def verdict_matrix(data: StudyData, metrics: list[str] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Relations × metrics of outcome marks, and the tooltip text of every cell.
+
+    Parameters
+    ----------
+    data : StudyData
+        The study's verdict.
+    metrics : list of str, optional
+        The metric columns, in order (default: every metric of the verdict).
 
     Returns
     -------
     (matrix, titles) : pandas.DataFrame, pandas.DataFrame
-        ``Known relation``, ``Kind`` and one column per metric (short label) with ✓ (agree),
-        ✗ (contradict), – (not significant) or ? (undefined); ``titles`` holds "value vs value, p = …".
+        ``Known relation``, ``Kind`` and one column per metric (short label) with each outcome's mark
+        (:data:`~taskcomplexity.report.outcomes.OUTCOME_DISPLAY`); ``titles`` holds "value vs value, p = …".
     """
     verdict = data.verdict["verdict"]
     relations = verdict[["easier", "harder", "kind"]].drop_duplicates()
-    metrics = list(dict.fromkeys(verdict["metric"]))
+    metrics = list(dict.fromkeys(verdict["metric"])) if metrics is None else list(metrics)
     indexed = verdict.set_index(["metric", "easier", "harder"])
     rows, tips = [], []
     for easier, harder, kind in relations.itertuples(index=False):
@@ -40,12 +85,17 @@ def verdict_matrix(data: StudyData) -> tuple[pd.DataFrame, pd.DataFrame]:
         for metric in metrics:
             column = data.registry.short(metric)
             v = indexed.loc[(metric, easier, harder)]
-            row[column] = SYMBOLS[v["outcome"]]
-            tip[column] = (f"{v['outcome']}: {num(v['value_easier'])} vs {num(v['value_harder'])}, "
-                           f"p = {pvalue(v['pvalue'])}")
+            row[column] = mark(v["outcome"])
+            tip[column] = (f"{data.registry.label(metric)}, {v['outcome']}: {num(v['value_easier'])} vs "
+                           f"{num(v['value_harder'])}, p = {pvalue(v['pvalue'])}")
         rows.append(row)
         tips.append(tip)
     return pd.DataFrame(rows), pd.DataFrame(tips)
+
+
+def outcome_words(matrix: pd.DataFrame) -> pd.DataFrame:
+    """A matrix of marks with each mark spelled out as its outcome (for the table files)."""
+    return matrix.replace({shown.mark: outcome for outcome, shown in OUTCOME_DISPLAY.items()})
 
 
 def verdict_display(data: StudyData) -> pd.DataFrame:
