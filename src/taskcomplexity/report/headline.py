@@ -39,13 +39,17 @@ def information_sentences(data: StudyData) -> list[str]:
                 parts.append(f"{words} on {of_total(hit, tasks, 'task')}")
         nulls_only = int(((rows["outcome"] == "uninformative") & rows["informative_easier"].astype(bool)
                           & rows["informative_harder"].astype(bool)).sum())
-        if nulls_only:
-            more = " more" if parts else ""
-            parts.append(f"on {of_total(nulls_only, len(rows), 'relation')}{more} the difference between the two tasks "
-                         "is mostly the difference of their permutation nulls")
-        subject = f"{metric.label} " + ", and ".join(parts) if parts else f"{metric.label} carries no information here"
-        if parts and parts[0].startswith("on "):
-            subject = f"For {metric.label}, " + ", and ".join(parts)
+        relations = of_total(nulls_only, len(rows), "relation")
+        if nulls_only and parts:
+            parts.append(f"on {relations} more its difference between the two tasks is mostly the difference of "
+                         "their permutation nulls")
+        if parts:
+            subject = f"{metric.label} " + ", and ".join(parts)
+        elif nulls_only:
+            subject = (f"On {relations}, {metric.label}'s difference between the two tasks is mostly the difference "
+                       "of their permutation nulls")
+        else:
+            subject = f"{metric.label} carries no information here"
         sentences.append(f"{subject}: its verdict on {of_total(blank, len(rows), 'relation')} measures the estimator, "
                          "not the tasks (uninformative).")
     return sentences
@@ -82,6 +86,10 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
             counts = _count(summary, m)
             if counts["uninformative"] == relations:
                 parts.append(f"{registry.label(m)} is uninformative on {'it' if relations == 1 else 'every one'}")
+                continue
+            if relations == 1:
+                word = {counts["agree"]: "agrees with it", counts["contradict"]: "contradicts it"}.get(1)
+                parts.append(f"{registry.label(m)} {word or 'is not significant or undefined on it'}")
                 continue
             part = f"{registry.label(m)} agrees with {counts['agree']} and contradicts {counts['contradict']}"
             if counts["uninformative"]:
