@@ -156,3 +156,14 @@ def test_the_n_to_resolve_is_below_n_when_resolved_and_infinite_without_a_differ
     assert policies_to_resolve(a, a.copy(), 100) == math.inf
     assert policies_to_resolve(a, a + 0.01, 100) > 1000  # a difference well within the noise
     assert math.isnan(policies_to_resolve(a[:1], b, 100))
+
+
+def test_kendall_tau_is_undefined_when_the_order_it_ranks_is_the_nulls():
+    values = pd.DataFrame({"task": ["a", "b", "c"], "metric": "pic", "value": [3.0, 2.0, 1.0]})
+    order = {"o": ("a", "b", "c")}
+    clean = summarise(judge(values, values, [], registry=DEFAULT_REGISTRY), values, registry=DEFAULT_REGISTRY,
+                      orders=order, nulls={("pic", t): 0.5 for t in "abc"})
+    assert clean.loc[0, "kendall_tau_o"] == pytest.approx(1.0)  # equal nulls: the order is the excesses'
+    driven = summarise(judge(values, values, [], registry=DEFAULT_REGISTRY), values, registry=DEFAULT_REGISTRY,
+                       orders=order, nulls={("pic", "a"): 2.9, ("pic", "b"): 1.95, ("pic", "c"): 0.9})
+    assert math.isnan(driven.loc[0, "kendall_tau_o"])

@@ -170,9 +170,11 @@ def run_verdict_stage(
         policies = gather_policies(tables, registry=registry)
         checked = information(values, nulls, policies, registry=registry, alpha=alpha)
         blank = uninformative(checked)
+        centres = null_means(checked)
         table = judge(values, samples, relations, registry=registry, alpha=alpha, uninformative=blank,
-                      nulls=null_means(checked), policies=policies)
-        summary = summarise(table, values, registry=registry, orders=study.orders, uninformative=blank)
+                      nulls=centres, policies=policies)
+        summary = summarise(table, values, registry=registry, orders=study.orders, uninformative=blank,
+                            nulls=centres)
         bounds = {t: f["metrics.parquet"].iloc[0] for t, f in tables["metrics"].items()
                   if {"r_min", "r_max", "r_mean"} <= set(f["metrics.parquet"].columns)}
         references = reference_scores(study, bounds)

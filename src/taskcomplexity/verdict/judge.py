@@ -180,6 +180,7 @@ def summarise(
     registry: Registry,
     orders: Mapping[str, Iterable[str]] | None = None,
     uninformative: Collection[tuple[str, str]] = (),
+    nulls: Mapping[tuple[str, str], float] | None = None,
 ) -> pd.DataFrame:
     """Per metric: outcome counts and Kendall's τ per known order.
 
@@ -195,13 +196,17 @@ def summarise(
         Named known total orders, easiest first (a study's ``orders``).
     uninformative : collection of (metric, task)
         Values without information: left out of Kendall's τ like missing ones.
+    nulls : mapping of (metric, task) to float, optional
+        Permutation-null means (as for :func:`judge`): τ is NaN when the difference of any pair of the
+        order's tasks is mostly the difference of their nulls (the order it ranks is the estimator's).
 
     Returns
     -------
     pandas.DataFrame, one row per metric of ``values`` (registry order)
         ``metric``, the counts of :data:`SUMMARY_COUNTS`; for each order ``kendall_tau_<name>``:
         Kendall's τ-b between the known order and the order the metric implies, over the tasks
-        with a finite, informative value (NaN with fewer than 2; +1 = exactly as known, −1 = reversed).
+        with a finite, informative value (NaN with fewer than 2, or when a pair's difference is mostly its
+        nulls'; +1 = exactly as known, −1 = reversed).
     """
     values = _tidy(values, "values")
     finite = values[np.isfinite(values["value"].to_numpy(dtype=np.float64))]
@@ -222,13 +227,24 @@ def summarise(
         for name, order in (orders or {}).items():
             tasks = [task for task in order if (metric, task) in points.index]
             tau = float("nan")
-            if len(tasks) >= 2:
+            if len(tasks) >= 2 and not _null_driven(points, nulls or {}, metric, tasks):
                 implied = np.array([points[(metric, task)] for task in tasks], dtype=np.float64)
                 tau = float(scipy.stats.kendalltau(np.arange(len(tasks)), -sign * implied).statistic)
             row[f"kendall_tau_{name}"] = tau
         rows.append(row)
     columns = ["metric", *SUMMARY_COUNTS]
     return pd.DataFrame(rows, columns=list(dict.fromkeys(columns + [k for r in rows for k in r])))
+
+
+def _null_driven(points: pd.Series, nulls: Mapping[tuple[str, str], float], metric: str, tasks: list[str]) -> bool:
+    """Whether the difference of any pair of ``tasks`` on ``metric`` is mostly the difference of their nulls."""
+    for i, a in enumerate(tasks):
+        for b in tasks[i + 1:]:
+            share = null_share_of_difference(float(points[(metric, a)]), float(points[(metric, b)]),
+                                             nulls.get((metric, a), np.nan), nulls.get((metric, b), np.nan))
+            if share > DIFFERENCE_NULL_SHARE:
+                return True
+    return False
 
 
 def by_relation(verdict: pd.DataFrame, metrics: Iterable[str]) -> pd.DataFrame:
