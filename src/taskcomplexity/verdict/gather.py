@@ -94,14 +94,12 @@ def gather_details(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]
         ``task``, ``quantity`` (the detail's name), ``metric`` (the metric it belongs to), ``value``.
     """
     rows = []
-    for stage, (point_file, _) in RETURN_MATRIX_STAGES.items():
-        for task, files in tables.get(stage, {}).items():
-            point = files[point_file]
-            for metric in registry.of_stage(stage):
-                for detail in metric.details:
-                    if detail.shown and detail.name in point.columns:
-                        rows.append({"task": task, "quantity": detail.name, "metric": metric.name,
-                                     "value": float(point[detail.name].iloc[0])})
+    for stage, task, point in _point_tables(tables):
+        for metric in registry.of_stage(stage):
+            for detail in metric.details:
+                if detail.shown and detail.name in point.columns:
+                    rows.append({"task": task, "quantity": detail.name, "metric": metric.name,
+                                 "value": float(point[detail.name].iloc[0])})
     return pd.DataFrame(rows, columns=["task", "quantity", "metric", "value"])
 
 
@@ -120,11 +118,15 @@ def gather_policies(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]
     dict of (metric, task) to int
     """
     found = {}
-    for stage, (point_file, _) in RETURN_MATRIX_STAGES.items():
-        for task, files in tables.get(stage, {}).items():
-            point = files[point_file]
-            if "policies" not in point.columns:
-                continue
+    for stage, task, point in _point_tables(tables):
+        if "policies" in point.columns:
             for metric in registry.of_stage(stage):
                 found[(metric.name, task)] = int(point["policies"].iloc[0])
     return found
+
+
+def _point_tables(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]]):
+    """(stage, task, point-value table) of every return-matrix stage's task in ``tables``."""
+    for stage, (point_file, _) in RETURN_MATRIX_STAGES.items():
+        for task, files in tables.get(stage, {}).items():
+            yield stage, task, files[point_file]
