@@ -162,10 +162,10 @@ def _two_link_step(p, q1, q2, u, qd2, tau1, tau2, dt):
 
 
 @numba.njit(cache=True, inline="always")
-def _two_link_step_const(p, inv11, inv12, inv22, q1, q2, u, qd2, tau1, tau2, dt):
+def _two_link_step_const(p, inv, q1, q2, u, qd2, tau1, tau2, dt):
     """:func:`_two_link_step` for a forearm whose centre of mass is on the elbow (M constant).
 
-    ``inv11, inv12, inv22`` are M⁻¹'s entries; the arithmetic is otherwise the same.
+    ``inv`` holds M⁻¹ as (inv11, inv12, inv22); the arithmetic is otherwise the same.
     """
     k, vmax = p.link_damping, p.max_velocity
     m1, c1, i1, b1, l1 = p.mass1, p.com1, p.inertia1, p.joint_damping1, p.length1
@@ -175,8 +175,8 @@ def _two_link_step_const(p, inv11, inv12, inv22, q1, q2, u, qd2, tau1, tau2, dt)
     f1 = tau1 - b1 * u - i1 * u * (k + k * abs(u)) - m1 * c1 * c1 * u * (k + k * abs(c1 * u)) - ang
     f1 -= m2 * l1 * l1 * u * (k + k * abs(l1 * u))
     f2 = tau2 - b2 * qd2 - ang
-    u = min(max(u + dt * (inv11 * f1 + inv12 * f2), -vmax), vmax)
-    qd2 = min(max(qd2 + dt * (inv12 * f1 + inv22 * f2), -vmax), vmax)
+    u = min(max(u + dt * (inv[0] * f1 + inv[1] * f2), -vmax), vmax)
+    qd2 = min(max(qd2 + dt * (inv[1] * f1 + inv[2] * f2), -vmax), vmax)
     return q1 + dt * u, q2 + dt * qd2, u, qd2
 
 
@@ -212,12 +212,9 @@ def _free_step(params, inv, const, two_links, a1, a2, u, v, t1, t2, on, dt):
     """One contact-free physics step of every environment of the block (a loop the compiler vectorises)."""
     n = a1.shape[0]
     if const:
-        # M⁻¹ as scalars: read from its array inside the loop, it may alias the state arrays, which keeps the
-        # compiler from vectorising the loop (same arithmetic, so the same bits).
-        inv11, inv12, inv22 = inv[0], inv[1], inv[2]
         for j in range(n):
-            a1[j], a2[j], u[j], v[j] = _two_link_step_const(params, inv11, inv12, inv22, a1[j], a2[j], u[j], v[j],
-                                                            on * t1[j], on * t2[j], dt)
+            a1[j], a2[j], u[j], v[j] = _two_link_step_const(params, inv, a1[j], a2[j], u[j], v[j], on * t1[j],
+                                                            on * t2[j], dt)
     elif two_links:
         for j in range(n):
             a1[j], a2[j], u[j], v[j] = _two_link_step(params, a1[j], a2[j], u[j], v[j], on * t1[j], on * t2[j], dt)
