@@ -199,12 +199,20 @@ def one_line_errors(fn):
         except OSError as err:
             if err.errno != errno.ENOSPC and "No space left on device" not in str(err):
                 raise
-            where = err.filename or "the outputs directory"
+            where = err.filename or f"the outputs directory {_outputs_of(args)}"
             print(f"error: disk full while writing {where}; free some space and rerun the same command to resume",
                   file=sys.stderr, flush=True)
             raise SystemExit(EXIT_DISK_FULL) from None
 
     return wrapper
+
+
+def _outputs_of(args: tuple) -> str:
+    """The absolute ``paths.outputs`` of an entry point's config (its first argument), for messages."""
+    try:
+        return os.path.abspath(str(OmegaConf.select(args[0], "paths.outputs", throw_on_missing=True)))
+    except Exception:  # noqa: BLE001 - no config, or one without a resolvable paths.outputs
+        return os.path.abspath(os.environ.get("TASKCOMPLEXITY_OUTPUTS", "outputs"))
 
 
 def sampler_from_config(cfg: Any):
@@ -365,14 +373,59 @@ def entry_config(cfg: Any, entry, typed: list[str], where: str, family: dict[str
     return node
 
 
+def _rwg_group_value(key: str, typed: list[str]) -> Any:
+    """``rwg.<key>`` as the chosen ``rwg`` group file gives it (before experiments and overrides), or None."""
+    from hydra.core.hydra_config import HydraConfig
+
+    choice = "default"
+    if HydraConfig.initialized():
+        choice = HydraConfig.get().runtime.choices.get("rwg", choice)
+    choice = next((o.partition("=")[2] for o in typed if o.partition("=")[0].lstrip("+~") == "rwg"), choice)
+    for directory in search_dirs(sys.argv):  # the first in Hydra's search path wins
+        path = directory / "rwg" / f"{choice}.yaml"
+        if path.is_file():
+            return OmegaConf.load(path).get(key)
+    return None
+
+
+def study_scale(cfg: Any, study, typed: list[str]) -> dict[str, int]:
+    """N and M that replace ``rwg.policies``/``rwg.episodes`` for every entry of ``study`` (logged).
+
+    A study file may give its own N, M (``study.policies``, ``study.episodes``: classic_control's
+    1000 × 1000); they apply unless ``rwg.policies``/``rwg.episodes`` is set explicitly, typed on the
+    command line or by an experiment overlay (``experiment=smoke``'s 10 × 4) — a value other than the
+    ``rwg`` group's own — which then wins, and the log says so. A typed ``study.policies`` always applies;
+    typing it beside a different ``rwg.policies`` is refused.
+    """
+    typed_keys = {o.partition("=")[0].lstrip("+~"): o for o in typed}
+    scale = {}
+    for key in ("policies", "episodes"):
+        own = getattr(study, key)
+        if own is None:
+            continue
+        given = cfg.rwg[key]
+        if f"study.{key}" in typed_keys:
+            if f"rwg.{key}" in typed_keys and given != own:
+                raise ConfigError(f"{typed_keys[f'rwg.{key}']} and {typed_keys[f'study.{key}']} disagree: give one "
+                                  f"(study.{key} sets every task of the study, rwg.{key} wins over the study file)")
+            scale[key] = own
+        elif f"rwg.{key}" in typed_keys or given != _rwg_group_value(key, typed):
+            if given != own:
+                how = "typed on the command line" if f"rwg.{key}" in typed_keys else "set by the experiment"
+                log.info("rwg.%s=%s (%s) wins over study.%s=%s of study %s, for every task", key, given, how, key,
+                         own, study.name)
+        else:
+            scale[key] = own
+    return scale
+
+
 def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
     """(StudyTask, RWGRequest) for every entry of the study, in study order.
 
     Each entry is composed with Hydra's compose API from the packaged configs (and the user's search
     path): the entry's own choices (``task``, ``env_id``, ``kwargs``, ``max_steps``, ``arm``,
     ``reward``, ``prior``, ``network``) over the command line's overrides, so an override such as
-    ``arm.links.0.mass=7`` reaches every study task. ``study.policies`` and ``study.episodes``, when
-    set, override N and M for every entry.
+    ``arm.links.0.mass=7`` reaches every study task. N and M of every entry: :func:`study_scale`.
     """
     import dataclasses
 
@@ -381,11 +434,11 @@ def study_requests(cfg: Any, study=None) -> list[tuple[Any, Any]]:
 
     study = study or study_from(cfg)
     settings = build(RWGSettings, cfg.rwg, "rwg")
-    overrides = {k: getattr(study, k) for k in ("policies", "episodes") if getattr(study, k) is not None}
+    typed = user_overrides()
+    overrides = study_scale(cfg, study, typed)
     if overrides:
         settings = dataclasses.replace(settings, **overrides)
         settings.validate()
-    typed = user_overrides()
     family = study_family(study, typed)
     dirs = search_dirs(sys.argv)
     for group, option in family.items():

@@ -66,13 +66,27 @@ def _further_stages(cfg: Any, cache, results, sac_curves: pd.DataFrame, settings
 
     actors = sac_curves.attrs.get(ACTORS_ATTR, {})  # task id → (SAC key, actors.npz)
     tasks = {r.task_id: r.request for r in results}
+    why = unavailable_actors(sac_curves)
     return {
         "occupancy": study_occupancy(cache, tasks, actors, build(OccupancySettings, cfg.occupancy, "occupancy"),
-                                     registry=registry, force=force, progress=True),
+                                     registry=registry, force=force, progress=True, unavailable=why),
         "learning_path": study_learning_paths(cache, tasks, actors,
                                               build(LearningPathSettings, cfg.learning_path, "learning_path"),
-                                              settings, registry=registry, force=force, progress=True),
+                                              settings, registry=registry, force=force, progress=True,
+                                              unavailable=why),
     }
+
+
+def unavailable_actors(sac_curves: pd.DataFrame) -> dict[str, str]:
+    """Why a task has no SAC actor (task id → reason), from the SAC stage's curves: SAC skips it (discrete
+    actions), or it has no cached curves (``sac.enabled=false``)."""
+    from taskcomplexity.stages.sac_stage import MISSING_ATTR, SKIPPED_ATTR
+
+    why = {task_id: "SAC is not trained with sac.enabled=false, and the cache holds no SAC curves for it"
+           for task_id in sac_curves.attrs.get(MISSING_ATTR) or []}
+    for task_id, reason in (sac_curves.attrs.get(SKIPPED_ATTR) or {}).items():
+        why[task_id] = f"SAC skips tasks with {reason}"
+    return why
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.policies import PolicyBatch
+from taskcomplexity.rwg.env_checks import check_observation, check_reward
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
 
@@ -96,8 +97,11 @@ class GymRollout:
         space_in, space_out = task.observation_space, task.action_space
 
         def start(slot: int) -> None:
-            first, _ = envs[slot].reset(seed=int(seeds[slot_policy[slot], slot_episode[slot]]))
-            obs[slot] = encode_observations(space_in, np.asarray(first)[None])[0]
+            reset_seed = int(seeds[slot_policy[slot], slot_episode[slot]])
+            first, _ = envs[slot].reset(seed=reset_seed)
+            first = check_observation(task, first, seed=reset_seed, policy=int(policies.indices[slot_policy[slot]]),
+                                      episode=int(slot_episode[slot]))
+            obs[slot] = encode_observations(space_in, first[None])[0]
 
         for slot in np.flatnonzero(active):
             start(slot)
@@ -109,7 +113,7 @@ class GymRollout:
                 for slot in np.flatnonzero(active):
                     p, e = slot_policy[slot], slot_episode[slot]
                     new, reward, terminated, truncated, info = envs[slot].step(actions[slot])
-                    returns[p, e] += float(reward)
+                    returns[p, e] += check_reward(task, reward, int(policies.indices[p]), int(e), int(steps[p, e]) + 1)
                     steps[p, e] += 1
                     if terminated or truncated or steps[p, e] >= limit:
                         success[p, e] = bool(info.get("is_success", info.get("success", False)))
@@ -119,5 +123,7 @@ class GymRollout:
                         else:
                             active[slot] = False
                     else:
-                        obs[slot] = encode_observations(space_in, np.asarray(new)[None])[0]
+                        new = check_observation(task, new, policy=int(policies.indices[p]), episode=int(e),
+                                                step=int(steps[p, e]))
+                        obs[slot] = encode_observations(space_in, new[None])[0]
         return returns, steps, success

@@ -2,7 +2,8 @@
 
 Both need, per task, the key of its SAC artefact and the artefact's ``actors.npz``
 (``curves.attrs["sac_actors"]`` of :func:`~taskcomplexity.stages.sac_stage.study_sac_curves`); a task
-without one (no SAC run, discrete actions, or a SAC artefact older than the snapshots) is left out.
+without one (SAC skips it, SAC has not trained it, or its SAC artefact is older than the snapshots) is
+left out, and the log says which of these it is.
 """
 
 from __future__ import annotations
@@ -18,6 +19,9 @@ from taskcomplexity.stages.stage_log import StageLog
 
 log = logging.getLogger(__name__)
 
+OLDER_THAN_SNAPSHOTS = "its SAC artefact is older than actor snapshots: force=true retrains it"
+"""Why a task SAC trained has no actor: its artefact was written before SAC kept actor snapshots."""
+
 
 def over_actor_tasks(
     stage: str,
@@ -27,6 +31,7 @@ def over_actor_tasks(
     *,
     episodes: Callable[[str], int],
     progress: bool = False,
+    unavailable: Mapping[str, str] | None = None,
 ) -> dict[str, Artefact]:
     """``run(task_id, sac_key, actors_file, advance)`` for every task of ``tasks`` that has an actor.
 
@@ -44,6 +49,9 @@ def over_actor_tasks(
         Episodes a task's artefact costs (the bar's total; a cache hit advances it at once).
     progress : bool
         Show one bar over the stage's episodes.
+    unavailable : mapping of task id to str, optional
+        Why a task has no actor, for the log (e.g. "SAC skips tasks with discrete actions"); a task
+        without an actor and without a reason has a SAC artefact older than actor snapshots.
 
     Returns
     -------
@@ -52,8 +60,11 @@ def over_actor_tasks(
     missing = [t for t in tasks if t not in actors]
     chosen = [t for t in tasks if t in actors]
     if missing and chosen:
-        log.info("%-12s no trained SAC actor for %s (a SAC artefact older than actor snapshots: force=true "
-                 "retrains it); left out", stage, ", ".join(missing))
+        reasons: dict[str, list[str]] = {}
+        for task_id in missing:
+            reasons.setdefault((unavailable or {}).get(task_id, OLDER_THAN_SNAPSHOTS), []).append(task_id)
+        for reason, ids in reasons.items():
+            log.info("%-12s no SAC actor for %s (%s); left out", stage, ", ".join(ids), reason)
     if not chosen:
         return {}
     log_ = StageLog(stage)

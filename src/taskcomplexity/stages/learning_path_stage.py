@@ -180,7 +180,7 @@ def run_learning_path_stage(cache: Cache, request: RWGRequest, sac_key: str, act
 def study_learning_paths(cache: Cache, requests: Mapping[str, RWGRequest], actors: Mapping[str, tuple[str, Path]],
                          settings: LearningPathSettings, metrics: MetricsSettings, *,
                          registry: Registry = DEFAULT_REGISTRY, force: bool = False,
-                         progress: bool = False) -> dict[str, Artefact]:
+                         progress: bool = False, unavailable: Mapping[str, str] | None = None) -> dict[str, Artefact]:
     """The learning-path artefact of every task (id → artefact) with a trained SAC actor in ``actors``
     (task id → (SAC key, its ``actors.npz``); :func:`~taskcomplexity.stages.actor_stages.over_actor_tasks`)."""
     if not settings.enabled or not registry.of_stage(STAGE):
@@ -195,4 +195,5 @@ def study_learning_paths(cache: Cache, requests: Mapping[str, RWGRequest], actor
         return run_learning_path_stage(cache, requests[task_id], sac_key, actors_file, settings, metrics,
                                        label=task_id, registry=registry, force=force, progress=advance)
 
-    return over_actor_tasks(STAGE, list(requests), actors, run, episodes=episodes, progress=progress)
+    return over_actor_tasks(STAGE, list(requests), actors, run, episodes=episodes, progress=progress,
+                            unavailable=unavailable)

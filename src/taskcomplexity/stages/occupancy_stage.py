@@ -153,9 +153,10 @@ def run_occupancy_stage(cache: Cache, request: RWGRequest, sac_key: str, actors_
 
 def study_occupancy(cache: Cache, requests: Mapping[str, RWGRequest], actors: Mapping[str, tuple[str, Path]],
                     settings: OccupancySettings, *, registry: Registry = DEFAULT_REGISTRY, force: bool = False,
-                    progress: bool = False) -> dict[str, Artefact]:
+                    progress: bool = False, unavailable: Mapping[str, str] | None = None) -> dict[str, Artefact]:
     """The occupancy artefact of every task (id → artefact) that has a trained SAC actor in ``actors``
-    (task id → (SAC key, its ``actors.npz``); :func:`~taskcomplexity.stages.actor_stages.over_actor_tasks`)."""
+    (task id → (SAC key, its ``actors.npz``); :func:`~taskcomplexity.stages.actor_stages.over_actor_tasks`,
+    which logs why each other task has none, from ``unavailable``)."""
     if not settings.enabled or not registry.of_stage(STAGE):
         return {}
 
@@ -164,4 +165,5 @@ def study_occupancy(cache: Cache, requests: Mapping[str, RWGRequest], actors: Ma
                                    registry=registry, force=force, progress=advance)
 
     return over_actor_tasks(STAGE, list(requests), actors, run, progress=progress,
-                            episodes=lambda _: settings.policies * settings.episodes)
+                            episodes=lambda _: settings.policies * settings.episodes,
+                            unavailable=unavailable)

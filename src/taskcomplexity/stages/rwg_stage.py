@@ -25,6 +25,7 @@ from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.primitive_policies import PrimitiveSpec
 from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
+from taskcomplexity.rwg.env_checks import EnvContractError, check_env
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
 from taskcomplexity.stages.keys import canonical, stage_key
 from taskcomplexity.tasks.base import Task
@@ -210,6 +211,33 @@ def check_plan(cache: Cache, request: RWGRequest) -> None:
             f"{disk / 2**30:,.2f} GB of disk under {cache.root}, {free / 2**30:,.2f} GB are free")
 
 
+def _compute_shards(cache: Cache, request: RWGRequest, scratch: Path, *, force: bool, progress: Progress,
+                    compute_missing: bool) -> list[int]:
+    """Compute this job's shard into ``scratch`` (every shard with ``force``, or with ``compute_missing``
+    those no other job has saved); the shards still missing."""
+    if force:
+        # Recompute every shard in a scratch directory of this process's own, so that a job computing
+        # the same key meanwhile is never pulled out from under its feet; the artefact replaces the old
+        # one under the key's lock.
+        for shard in range(request.settings.shards):
+            compute_shard(cache, request, shard, progress=progress, scratch=scratch)
+        return []
+    _ensure_shard(cache, request, request.settings.shard, progress=progress)
+    missing = missing_shards(cache, request) if cache.lookup(STAGE, request.key, request.identity()) is None else []
+    if missing and not compute_missing:
+        return missing
+    for shard in missing:
+        _ensure_shard(cache, request, shard, progress=progress)
+    return []
+
+
+def _discard_partial_work(cache: Cache, key: str, scratch: Path) -> None:
+    """Remove the scratch directory and the shard locks of ``key`` (an env refused mid-run)."""
+    shutil.rmtree(scratch, ignore_errors=True)
+    for lock in (cache.root / STAGE).glob(f".{key}.shard-*.lock"):
+        lock.unlink(missing_ok=True)
+
+
 def run_rwg_stage(
     cache: Cache,
     request: RWGRequest,
@@ -234,26 +262,22 @@ def run_rwg_stage(
     if not force and (found := cache.lookup(STAGE, key, request.identity())) is not None:
         log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
         return found, True
+    if request.backend == "gym":
+        check_env(request.task, request.settings.seed)  # before anything is created under the cache
     check_plan(cache, request)
     started = time.time()
     shards = request.settings.shards
-    if force:
-        # Recompute every shard in a scratch directory of this process's own, so that a job computing
-        # the same key meanwhile is never pulled out from under its feet; the artefact replaces the old
-        # one under the key's lock.
-        scratch = cache.scratch(STAGE, f"{key}-force-{os.getpid()}")
-        for shard in range(shards):
-            compute_shard(cache, request, shard, progress=progress, scratch=scratch)
-    else:
-        scratch = cache.scratch(STAGE, key)
-        _ensure_shard(cache, request, request.settings.shard, progress=progress)
-        missing = missing_shards(cache, request) if cache.lookup(STAGE, key, request.identity()) is None else []
-        if missing and not compute_missing:
-            log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard, shards,
-                     request.label, missing)
-            return None, False
-        for shard in missing:
-            _ensure_shard(cache, request, shard, progress=progress)
+    scratch = cache.scratch(STAGE, f"{key}-force-{os.getpid()}" if force else key)
+    try:
+        missing = _compute_shards(cache, request, scratch, force=force, progress=progress,
+                                  compute_missing=compute_missing)
+    except EnvContractError:
+        _discard_partial_work(cache, key, scratch)  # the env, not the run, failed: nothing of it is kept
+        raise
+    if missing:
+        log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard, shards,
+                 request.label, missing)
+        return None, False
 
     def write(directory: Path) -> dict:
         parts = [_load_chunk(_shard_file(scratch, i, shards)) for i in range(shards)]
