@@ -16,6 +16,7 @@ from omegaconf import open_dict
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
+from taskcomplexity.report.format import of_total
 from taskcomplexity.rwg.occupancy import pair_size, record_occupancies
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.stages.occupancy_stage import OccupancySettings, compute_tables
@@ -123,7 +124,8 @@ def test_with_sac_trained_every_task_gets_a_distance_and_the_verdict_judges_it(w
     report = (index.parent / "report.md").read_text()
     agree = int((judged["outcome"] == "agree").sum())
     contradict = int((judged["outcome"] == "contradict").sum())
-    assert f"W₂ to SAC's policy agrees with {agree} and contradicts {contradict} of the 3 known relations" in report
+    agreed = of_total(agree, 3, "known relation")
+    assert f"W₂ to SAC's policy agrees with {agreed} and contradicts {contradict}" in report
     table = pd.read_csv(index.parent / "tables" / "beyond_the_paper.csv")
     assert list(table.columns[3:]) == ["PIC", "POIC", "W₂ to SAC's policy", "learning-path PIC",
                                        "learning-path POIC", "PIC under DMPs", "POIC under DMPs"] and len(table) == 3
