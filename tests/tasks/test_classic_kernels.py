@@ -191,3 +191,27 @@ def test_compaction_packs_running_episodes_first_and_drops_finished_policies():
     rows, slots = _compaction(running)
     np.testing.assert_array_equal(rows, [0, 2])
     np.testing.assert_array_equal(slots, [[1, 3], [8, 9]])  # row 2 padded with a finished slot
+
+
+def test_rwg_runs_the_forward_pass_with_one_blas_thread_and_the_same_returns():
+    # The forward pass runs its own worker per core; BLAS threads inside them only spin. RWG limits BLAS to one
+    # thread while it runs (and restores the limit after), and the products, so the returns, are the same.
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from taskcomplexity.rwg import simulate_chunk
+
+    task = GymTask("Pendulum-v1")
+    network = NetworkSpec(hidden=(64, 64), activation="tanh", output="linear")
+    settings = RWGSettings(policies=8, episodes=256, seed=3)
+    blas = [p for p in threadpool_info() if p["user_api"] == "blas"]
+    if not blas:
+        pytest.skip("NumPy reports no BLAS library to limit")
+    seen = []
+    limited = run_rwg(task, network, PriorSpec(), settings, backend="kernel",
+                      on_chunk=lambda key, chunk: seen.append({p["num_threads"] for p in threadpool_info()
+                                                               if p["user_api"] == "blas"}))
+    assert seen and all(threads == {1} for threads in seen)
+    assert [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"] == [p["num_threads"] for p in blas]
+    with threadpool_limits(limits=2, user_api="blas"):
+        threaded = simulate_chunk(task, network, PriorSpec(), settings, 0, settings.policies, backend="kernel")
+    np.testing.assert_array_equal(limited.returns, threaded.returns)

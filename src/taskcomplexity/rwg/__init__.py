@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
+from threadpoolctl import threadpool_limits
 
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
@@ -387,6 +388,9 @@ def run_rwg(
     total = sum(b - a for a, b in ranges) * settings.episodes
     bar = progress_bar(progress, total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", smoothing=0.1)
     rollout = GymRollout(task) if backend == "gym" else None
+    # The policy forward pass already runs one thread per core (PolicyBatch.act): BLAS threads inside those
+    # workers would only spin against them. One BLAS thread per worker computes the same products.
+    blas = threadpool_limits(limits=1, user_api="blas")
     try:
         for key in ranges:
             if key not in completed:
@@ -398,6 +402,7 @@ def run_rwg(
                     on_chunk(key, completed[key])
             bar.update((key[1] - key[0]) * settings.episodes)
     finally:
+        blas.restore_original_limits()
         bar.close()
         if rollout is not None:
             rollout.close()
