@@ -70,3 +70,14 @@ def test_with_auto_bins_the_study_runs_at_the_papers_ratio(tmp_path, run_stages)
     manifest = found["results"][0].metrics.manifest["config"]
     assert manifest["bins"] == 64 * 8 // 50  # N·M / 50
     assert "B = 10" in text
+
+
+def test_table1_says_what_its_values_hold_besides_information(published_bins):
+    text, found = published_bins
+    caption = text.split("of random policies.**", 1)[1].split("\n", 1)[0]
+    assert "null share is the part of the whole-sample value that its permutation null gives" in caption
+    # the caption names the bootstrap mean's bias exactly when a value's bootstrap mean is over 2 sd from it
+    rows = [pd.read_parquet(r.metrics.file("metrics.parquet")).iloc[0] for r in found["results"]]
+    biased = [r for r in rows for m in ("pic", "poic") if abs(r[m] - r[f"{m}_mean"]) > 2 * r[f"{m}_sd"]]
+    assert biased  # at N = 64 (Pendulum's PIC sits at its ceiling; a resample repeats policies)
+    assert "the bootstrap mean is biased" in caption

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+import numpy as np
 import pandas as pd
 
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData, return_matrix
-from taskcomplexity.report.format import joined, plural, slug
+from taskcomplexity.report.format import joined, num, plural, slug
 from taskcomplexity.report.html import Paragraph, Section, TableBlock
 from taskcomplexity.report.outcomes import legend as outcome_legend
 from taskcomplexity.report.sac_summary import format_sac_summary
@@ -145,7 +146,8 @@ def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
     if bootstrapped:
         blocks += [
             writer.table(table1(data), "table1", f"{names} of random policies.",
-                         f"Bootstrap mean ± sd ({joined(m.unit for m in bootstrapped)}), as Table 1 of the paper."),
+                         f"Bootstrap mean ± sd ({joined(m.unit for m in bootstrapped)}), as Table 1 of the paper. "
+                         + table1_caveats(data, bootstrapped)),
             writer.table(interval_table(data), "bootstrap_intervals", "Bootstrap intervals.",
                          "Point estimate on the whole sample and percentile 95 % interval of the bootstrap, and "
                          "the POIC temperature λ* (flagged when on a boundary of the search range)."),
@@ -226,6 +228,30 @@ def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None
         ),
         *note,
     ))
+
+
+def table1_caveats(data: StudyData, bootstrapped) -> str:
+    """What Table 1's numbers hold besides information: the null's share of each value, and how far the bootstrap
+    mean sits from the whole-sample value (a resample repeats policies, which lowers a plug-in entropy)."""
+    words = []
+    if any(m.information is not None and m.information.null for m in bootstrapped):
+        words.append("A null share is the part of the whole-sample value that its permutation null gives (returns "
+                     "shuffled across policies, no information): the estimator's bias, from the verdict's "
+                     "information check.")
+    worst = None
+    for m in bootstrapped:
+        for _, row in data.metrics.iterrows():
+            point, mean, sd = row.get(m.name), row.get(f"{m.name}_mean"), row.get(f"{m.name}_sd")
+            if all(v is not None and np.isfinite(v) for v in (point, mean, sd)) and abs(point - mean) > 2 * sd:
+                gap = abs(point - mean)
+                if worst is None or gap > worst[0]:
+                    worst = (gap, m, row["task"], point, mean)
+    if worst is not None:
+        gap, m, task, point, mean = worst
+        words.append(f"At this N the bootstrap mean is biased: it sits more than 2 sd from the whole-sample value "
+                     f"(most for {m.label} of {data.name(task)}: {num(mean)} against {num(point)}), because a "
+                     "resample repeats policies; the bootstrap intervals below give the whole-sample values.")
+    return " ".join(words)
 
 
 def diagnostics_section(writer: Writer, data: StudyData) -> Section:
