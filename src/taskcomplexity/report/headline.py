@@ -88,8 +88,9 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
                 parts.append(f"{registry.label(m)} is uninformative on {'it' if relations == 1 else 'every one'}")
                 continue
             if relations == 1:
-                word = {counts["agree"]: "agrees with it", counts["contradict"]: "contradicts it"}.get(1)
-                parts.append(f"{registry.label(m)} {word or 'is not significant or undefined on it'}")
+                word = ("agrees with it" if counts["agree"] else "contradicts it" if counts["contradict"]
+                        else "is not significant or undefined on it")
+                parts.append(f"{registry.label(m)} {word}")
                 continue
             part = f"{registry.label(m)} agrees with {counts['agree']} and contradicts {counts['contradict']}"
             if counts["uninformative"]:
