@@ -16,7 +16,7 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.keys import stage_key
-from taskcomplexity.stages.rwg_stage import STAGE, VERSION, RWGRequest
+from taskcomplexity.stages.rwg_stage import NUMERICS, STAGE, RWGRequest
 from taskcomplexity.tasks.base import decode_actions
 from taskcomplexity.tasks.spec import make_task
 
@@ -134,7 +134,7 @@ def test_the_new_fields_at_their_defaults_keep_the_papers_cache_keys():
         "prior": {"kind": "normal", "variance": 1.0, "low": -1.0, "high": 1.0},
         "policies": 20, "episodes": 6, "seed": 1, "backend": "batched", "common_initial_states": False,
     }
-    assert request.key == stage_key(STAGE, VERSION, before)
+    assert request.key == stage_key(STAGE, NUMERICS, before)
     family = RWGRequest(request.task, FAMILY[2], PriorSpec(kind="xavier_normal", gain=5 / 3), request.settings)
     assert family.identity()["network"]["activation"] == "tanh" and family.identity()["prior"]["gain"] == 5 / 3
     assert family.key != request.key

@@ -6,7 +6,7 @@ import dataclasses
 
 from taskcomplexity.rl.settings import SACSettings
 from taskcomplexity.stages.keys import stage_key
-from taskcomplexity.stages.sac_stage import STAGE, VERSION, sac_identity
+from taskcomplexity.stages.sac_stage import NUMERICS, STAGE, sac_identity
 from taskcomplexity.tasks.spec import make_task
 
 CHANGED = {  # a valid different value of every field
@@ -22,7 +22,7 @@ NOT_A_RESULT = {"enabled", "budget_fraction"}
 
 
 def key(settings: SACSettings) -> str:
-    return stage_key(STAGE, VERSION, sac_identity(make_task("two_link", "sparse"), settings))
+    return stage_key(STAGE, NUMERICS, sac_identity(make_task("two_link", "sparse"), settings))
 
 
 def test_every_field_that_changes_the_curves_changes_the_key_and_no_other_does():

@@ -141,11 +141,13 @@ def test_a_damaged_manifest_is_detected_and_recomputed(tmp_path):
     assert not hit and cache.lookup("rwg", artefact.key) is not None
 
 
-def test_a_new_stage_format_version_invalidates_old_keys(monkeypatch):
+def test_a_new_stage_numerics_version_invalidates_old_keys(monkeypatch):
+    import dataclasses
+
     import taskcomplexity.stages.rwg_stage as stage
 
     old = request().key
-    monkeypatch.setattr(stage, "VERSION", stage.VERSION + 1)
+    monkeypatch.setattr(stage, "NUMERICS", dataclasses.replace(stage.NUMERICS, version=stage.NUMERICS.version + 1))
     assert request().key != old
 
 

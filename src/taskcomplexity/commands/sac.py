@@ -19,8 +19,8 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import cache_from_config, entry_config, one_line_errors, study_from
 from taskcomplexity.commands import entry_point
-from taskcomplexity.errors import ConfigError
-from taskcomplexity.rl import sac_skip_reason, with_budget
+from taskcomplexity.rl import with_budget
+from taskcomplexity.rl.train import refuse_untrainable
 from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
@@ -32,6 +32,8 @@ log = logging.getLogger("sac")
 def run(cfg: DictConfig):
     task = task_from_config(cfg)
     settings = sac_settings_from_config(cfg.sac)
+    # refused before the cache holds anything of the run (training refuses it too, but only once its
+    # scratch directory and lock exist)
     refuse_untrainable(task, settings)
     # The study entry gives the budget (when sac.total_steps is unset) and, for a gym task, solved_return.
     needs_entry = settings.total_steps is None or not isinstance(task, TaskSpec)
@@ -42,22 +44,6 @@ def run(cfg: DictConfig):
     artefact, hit = run_sac_stage(cache, task, settings, solved_return=solved, force=bool(cfg.force), progress=True)
     log.info("%s curves %s: %s", "cache hit" if hit else "trained", task.task_id, artefact.file(CURVES))
     return artefact
-
-
-def refuse_untrainable(task, settings) -> None:
-    """Refuse a task SAC cannot train (discrete actions; HER without a goal view) before the cache holds
-    anything of the run: training refuses it too (``rl.train``), but only once its scratch directory and
-    lock exist."""
-    reason = sac_skip_reason(task)
-    if reason is not None:
-        raise ConfigError(f"SAC cannot run on task {task.task_id}: {reason} ({task.action_space}; SAC needs a Box)")
-    if settings.her:
-        if not isinstance(task, TaskSpec):
-            raise ConfigError(f"sac.her=true needs a goal-conditioned view, and task {task.task_id} has none "
-                              "(allowed: the reaching arms without an obstacle)")
-        from taskcomplexity.tasks.goal_env import goal_layout
-
-        goal_layout(task)  # raises ConfigError for an arm without a goal-conditioned view
 
 
 def study_entry_for(cfg: Any, task) -> Any:

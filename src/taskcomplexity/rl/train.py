@@ -168,16 +168,9 @@ def train_sac_run(
     seeds = tuple(int(s) for s in (settings.seeds if seeds is None else seeds))
     settings = dataclasses.replace(settings, seeds=seeds).validate()
     task = task.validate()
-    reason = sac_skip_reason(task)
-    if reason is not None:
-        raise ConfigError(f"SAC cannot run on task {task.task_id}: {reason} ({task.action_space}; SAC needs a Box)")
+    refuse_untrainable(task, settings)
     if settings.total_steps is None:
         raise ConfigError(f"no SAC budget for task {task.task_id}: set sac.total_steps (or the study's sac_steps)")
-    if settings.her:
-        if not isinstance(task, TaskSpec):
-            raise ConfigError(f"sac.her=true needs a goal-conditioned view, and task {task.task_id} has none "
-                              "(allowed: the reaching arms without an obstacle)")
-        goal_layout(task)  # raises ConfigError for an arm without a goal-conditioned view
     if settings.train_seeds_together or len(seeds) == 1:
         run = _Run(task, settings, checkpoint_dir, progress, solved_return)
         return run.train(stop_after), run.snapshots
@@ -188,6 +181,19 @@ def train_sac_run(
         curves.append(run.train(stop_after))
         snapshots.append(run.snapshots)
     return pd.concat(curves, ignore_index=True), ActorSnapshots.join_seeds(snapshots)
+
+
+def refuse_untrainable(task: Task, settings: SACSettings) -> None:
+    """Raise :class:`ConfigError` for a task SAC cannot train: discrete actions, or HER without a
+    goal-conditioned view."""
+    reason = sac_skip_reason(task)
+    if reason is not None:
+        raise ConfigError(f"SAC cannot run on task {task.task_id}: {reason} ({task.action_space}; SAC needs a Box)")
+    if settings.her:
+        if not isinstance(task, TaskSpec):
+            raise ConfigError(f"sac.her=true needs a goal-conditioned view, and task {task.task_id} has none "
+                              "(allowed: the reaching arms without an obstacle)")
+        goal_layout(task)  # raises ConfigError for an arm without a goal-conditioned view
 
 
 @dataclass

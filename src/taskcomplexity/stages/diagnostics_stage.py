@@ -37,15 +37,15 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
 from taskcomplexity.progress import stage_bar
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import stage_key
-from taskcomplexity.stages.metrics_stage import MetricsSettings, returns_shape
+from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings, returns_shape
 from taskcomplexity.stages.rwg_stage import load_returns
 from taskcomplexity.stages.stage_log import StageLog
 
 log = logging.getLogger(__name__)
 
 STAGE = "diagnostics"
-VERSION = 2
+NUMERICS = Numerics(version=2, modules=(*ESTIMATORS, "stages.metrics_stage", "stages.diagnostics_stage"))
 FILES = (
     "null.parquet",
     "null_summary.parquet",
@@ -138,7 +138,7 @@ def diagnostics_key(
         "temperature_range": list(metrics_settings.temperature_range),
         "batches": metrics_settings.batches,
     }
-    return stage_key(STAGE, VERSION, {"rwg": rwg_key, "metrics": estimator, **settings.identity(),
+    return stage_key(STAGE, NUMERICS, {"rwg": rwg_key, "metrics": estimator, **settings.identity(),
                                       "registry": registry.signature(STAGE)})
 
 

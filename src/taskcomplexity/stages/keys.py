@@ -1,23 +1,65 @@
-"""Cache keys: a hash of the canonical (sorted, resolved) config subset, input keys, format version and
-a fingerprint of the code that computes the stage.
+"""Cache keys: a hash of the stage's name, its declared numerics version, its canonical settings subset and
+the keys of its inputs.
 
-The fingerprint (:func:`code_fingerprint`) hashes the syntax trees (docstrings, comments and layout
-left out) of the stage's module and of every ``taskcomplexity`` module it imports, directly or
-not, at any depth (imports inside functions included). So a result computed by older code is never
-served: after an upgrade that changes a stage's code, that stage (and the stages downstream of it,
-whose keys hold its key) recompute once; stages whose code did not change keep their artefacts.
+Each stage module declares, once, beside its ``STAGE`` name, a :class:`Numerics`: the version of its
+numbers and the modules that compute them. The key holds the **version**, not the code:
+
+- Hashing code (as the keys did up to this change: the syntax trees of a stage module's whole import
+  closure) re-keys results whenever a function moves between modules or a log line changes, which throws
+  away hours of SAC curves for a refactor, and makes the code bend around the keys. Hashing only the
+  declared modules' source would still re-key on every refactor inside them (e.g. the bit-identical
+  rewrites of the RWG kernels), and on none of the changes that reach the numbers from elsewhere.
+- The module names are not hashed either: moving a declared module (say into a package of its own) is a
+  layout change, and re-keying on it would cost the same hours for the same numbers.
+- What guards the version is a **golden run** per stage (``tests/golden``): fixed tiny settings whose
+  artefact's numbers are hashed and committed with the version they were recorded at. When the numbers
+  change at the same version the test fails ("bump the version"); when the version moved it asks to
+  re-record. So a numbers change comes with a version bump (named in its commit), and everything else
+  (layout, logging, glue) changes no key.
+- The declared modules say where a change needs that thought: ``tests/stages/test_numerics.py`` checks
+  that every module a stage reaches (stopping at the stages it reads through their keys) is either
+  declared or listed there as glue that computes no number, and that every declared module exists.
+
+After an upgrade, a stage recomputes only when its version moved or its settings changed, and the stages
+downstream with it (their keys hold its key).
 """
 
 from __future__ import annotations
 
-import ast
 import dataclasses
-import functools
 import hashlib
-import importlib.util
 import json
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """What a stage's numbers are a function of, besides its settings and inputs.
+
+    Attributes
+    ----------
+    version : int
+        Bump it when the stage's numbers change (same settings, same inputs, other artefact); the keys
+        change with it, so no artefact of the older numbers is served.
+    modules : tuple of str
+        The ``taskcomplexity`` modules (dotted, without the package prefix) that compute the stage's
+        numbers: a change of a number in one of them needs a bump. Not part of the key.
+    """
+
+    version: int
+    modules: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        if isinstance(self.version, bool) or not isinstance(self.version, int) or self.version < 1:
+            raise ValueError(f"a numerics version is an integer >= 1, got {self.version!r}")
+        if len(set(self.modules)) != len(self.modules):
+            raise ValueError(f"a module is declared twice in {self.modules}")
+
+    def qualified(self) -> tuple[str, ...]:
+        """The declared modules' importable names (``taskcomplexity.<module>``)."""
+        return tuple(f"{PACKAGE}.{m}" for m in self.modules)
+
 
 PACKAGE = "taskcomplexity"
 
@@ -35,82 +77,7 @@ def canonical(value: Any) -> Any:
     return value
 
 
-def stage_key(stage: str, version: int, payload: dict[str, Any]) -> str:
-    """16 hex digits identifying ``payload`` for ``stage`` at format ``version``, computed by today's code.
-
-    The stage's code is the module ``taskcomplexity.stages.<stage>_stage`` and what it imports.
-    """
-    code = code_fingerprint(f"{__package__}.{stage}_stage")
-    text = json.dumps({"stage": stage, "version": version, "code": code, "payload": canonical(payload)},
-                      sort_keys=True)
+def stage_key(stage: str, numerics: Numerics, payload: dict[str, Any]) -> str:
+    """16 hex digits identifying ``payload`` (settings and input keys) for ``stage`` at ``numerics.version``."""
+    text = json.dumps({"stage": stage, "version": numerics.version, "payload": canonical(payload)}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-@functools.cache
-def code_fingerprint(module: str) -> str:
-    """SHA-256 over the syntax trees of ``module`` and of every package module it imports (transitively).
-
-    Memoised per process: the files do not change under a running computation.
-    """
-    digest = hashlib.sha256()
-    for name in sorted(_closure(module)):
-        digest.update(name.encode())
-        digest.update(_tree_digest(_source_path(name)).encode())
-    return digest.hexdigest()[:16]
-
-
-def _closure(module: str) -> set[str]:
-    seen, todo = set(), [module]
-    while todo:
-        name = todo.pop()
-        if name in seen:
-            continue
-        path = _source_path(name)
-        seen.add(name)
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            for imported in _imports(node, name, path):
-                if imported.split(".")[0] == PACKAGE and imported not in seen and _exists(imported):
-                    todo.append(imported)
-    return seen
-
-
-def _imports(node: ast.AST, module: str, path: Path) -> list[str]:
-    if isinstance(node, ast.Import):
-        return [alias.name for alias in node.names]
-    if not isinstance(node, ast.ImportFrom):
-        return []
-    if node.level:
-        package = module if path.name == "__init__.py" else module.rpartition(".")[0]
-        for _ in range(node.level - 1):
-            package = package.rpartition(".")[0]
-        base = f"{package}.{node.module}" if node.module else package
-    else:
-        base = node.module or ""
-    # ``from package import module`` names a module; ``from module import name`` a name in it.
-    return [base, *(f"{base}.{alias.name}" for alias in node.names)]
-
-
-def _exists(module: str) -> bool:
-    try:
-        return importlib.util.find_spec(module) is not None
-    except (ImportError, ValueError):
-        return False
-
-
-def _source_path(module: str) -> Path:
-    spec = importlib.util.find_spec(module)
-    if spec is None or spec.origin is None or not spec.origin.endswith(".py"):
-        raise ValueError(f"no Python source for module {module!r}")
-    return Path(spec.origin)
-
-
-def _tree_digest(path: Path) -> str:
-    """Hash of a file's syntax tree without docstrings (comments and layout never reach the tree)."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
-    for node in ast.walk(tree):
-        body = getattr(node, "body", None)
-        if (isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and body
-                and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
-                and isinstance(body[0].value.value, str)):
-            node.body = body[1:] or [ast.Pass()]
-    return hashlib.sha256(ast.dump(tree).encode()).hexdigest()

@@ -37,12 +37,14 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Sample
 from taskcomplexity.stages.actor_stages import over_actor_tasks
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import stage_key
-from taskcomplexity.stages.metrics_stage import MetricsSettings
-from taskcomplexity.stages.rwg_stage import RWGRequest
+from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
+from taskcomplexity.stages.rwg_stage import EPISODES, RWGRequest
 
 STAGE = "learning_path"
-VERSION = 1
+NUMERICS = Numerics(version=1, modules=(*EPISODES, *ESTIMATORS, "rwg.given_policies", "rl.snapshots", "rl.layers",
+                                      "metrics.learning_path", "metrics.policy_tables", "stages.metrics_stage",
+                                      "stages.learning_path_stage"))
 FILES = ("learning_path.parquet", "path.parquet", "bootstrap.parquet", "batches.parquet")
 
 
@@ -116,7 +118,7 @@ def learning_path_key(request: RWGRequest, sac_key: str, settings: LearningPathS
                       registry: Registry) -> str:
     rwg = request.identity()
     episodes = {k: v for k, v in rwg.items() if k in ("task", "backend", "contacts", "common_initial_states")}
-    return stage_key(STAGE, VERSION, {"episodes": episodes, "sac": sac_key, **settings.identity(),
+    return stage_key(STAGE, NUMERICS, {"episodes": episodes, "sac": sac_key, **settings.identity(),
                                       "estimation": metrics.identity(), "metrics": registry.signature(STAGE)})
 
 

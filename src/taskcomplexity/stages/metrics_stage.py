@@ -32,13 +32,19 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.metrics.temperature import POICSearch
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.rwg_stage import load_returns
 
 log = logging.getLogger(__name__)
 
 STAGE = "metrics"
-VERSION = 2
+ESTIMATORS = (
+    "metrics.registry", "metrics.sample", "metrics.evaluate", "metrics.histogram", "metrics.resampled_histograms",
+    "metrics.pic", "metrics.poic", "metrics.temperature", "metrics.log_mean_exp", "metrics.bootstrap",
+    "metrics.batches", "metrics.statistics", "metrics.shuffle", "metrics.diagnostics", "metrics.knn",
+)
+"""The estimators of the registry's metrics on a return matrix, their bootstrap and their policy batches."""
+NUMERICS = Numerics(version=2, modules=(*ESTIMATORS, "stages.metrics_stage"))
 FILES = ("metrics.parquet", "policies.parquet", "bootstrap.parquet", "batches.parquet")
 AUTO = "auto"
 """``metrics.bins`` chosen from the return matrix's N and M (:meth:`MetricsSettings.at_scale`)."""
@@ -130,7 +136,7 @@ class MetricsSettings:
 
 def metrics_key(rwg_key: str, settings: MetricsSettings, registry: Registry = DEFAULT_REGISTRY) -> str:
     """Cache key: the RWG key, the settings and the registry's signature of the stage's metrics."""
-    return stage_key(STAGE, VERSION, {"rwg": rwg_key, **settings.identity(), "metrics": registry.signature(STAGE)})
+    return stage_key(STAGE, NUMERICS, {"rwg": rwg_key, **settings.identity(), "metrics": registry.signature(STAGE)})
 
 
 def compute_metrics(

@@ -36,11 +36,13 @@ from taskcomplexity.policies import sample_policies
 from taskcomplexity.seeding import derive_seed
 from taskcomplexity.stages.actor_stages import over_actor_tasks
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import stage_key
-from taskcomplexity.stages.rwg_stage import RWGRequest
+from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.metrics_stage import ESTIMATORS
+from taskcomplexity.stages.rwg_stage import EPISODES, RWGRequest
 
 STAGE = "occupancy"
-VERSION = 1
+NUMERICS = Numerics(version=1, modules=(*EPISODES, *ESTIMATORS, "rwg.occupancy", "rl.snapshots", "rl.layers",
+                                      "metrics.occupancy", "metrics.policy_tables", "stages.occupancy_stage"))
 FILES = ("occupancy.parquet", "distances.parquet", "bootstrap.parquet", "batches.parquet")
 
 
@@ -93,7 +95,7 @@ class OccupancySettings:
 def occupancy_key(request: RWGRequest, sac_key: str, settings: OccupancySettings, registry: Registry) -> str:
     """Cache key: the random policies (task, network, prior, seed), the SAC actor, settings and metrics."""
     sampler = {k: v for k, v in request.identity().items() if k in ("task", "network", "prior", "seed")}
-    return stage_key(STAGE, VERSION, {"policies": sampler, "sac": sac_key, **settings.identity(),
+    return stage_key(STAGE, NUMERICS, {"policies": sampler, "sac": sac_key, **settings.identity(),
                                       "metrics": registry.signature(STAGE)})
 
 

@@ -37,13 +37,14 @@ from taskcomplexity.primitive_policies import PrimitiveSpec
 from taskcomplexity.progress import stage_bar
 from taskcomplexity.rwg import resolve_backend
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import stage_key
-from taskcomplexity.stages.metrics_stage import MetricsSettings
+from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.stages.stage_log import StageLog
 
 STAGE = "primitives"
-VERSION = 1
+NUMERICS = Numerics(version=1, modules=(*ESTIMATORS, "metrics.policy_tables", "stages.metrics_stage",
+                                      "stages.primitives_stage"))
 FILES = ("primitives.parquet", "bootstrap.parquet", "batches.parquet")
 
 
@@ -121,7 +122,7 @@ class PrimitivesSettings:
 
 def primitives_key(request: RWGRequest, metrics: MetricsSettings, settings: PrimitivesSettings,
                    registry: Registry) -> str:
-    return stage_key(STAGE, VERSION, {"rwg": request.key, "batches": settings.batches,
+    return stage_key(STAGE, NUMERICS, {"rwg": request.key, "batches": settings.batches,
                                       "estimation": metrics.identity(), "metrics": registry.signature(STAGE)})
 
 

@@ -27,13 +27,21 @@ from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
-from taskcomplexity.stages.keys import canonical, stage_key
+from taskcomplexity.stages.keys import Numerics, canonical, stage_key
 from taskcomplexity.tasks.base import Task
 
 log = logging.getLogger(__name__)
 
 STAGE = "rwg"
-VERSION = 1
+EPISODES = (
+    "policies", "primitive_policies", "movement_primitives", "seeding", "rwg.kernel_backend", "rwg.gym_backend",
+    "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
+    "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
+    "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets",
+)
+"""The modules that make a task's episodes under a batch of sampled policies: the policy families and their
+sampling, the physics and reward kernels, the PyBullet and gymnasium envs, the backends that step them."""
+NUMERICS = Numerics(version=1, modules=(*EPISODES, "rwg", "stages.rwg_stage"))
 RETURNS = "returns.parquet"
 
 
@@ -74,7 +82,7 @@ class RWGRequest:
 
     @property
     def key(self) -> str:
-        return stage_key(STAGE, VERSION, self.identity())
+        return stage_key(STAGE, NUMERICS, self.identity())
 
     @property
     def label(self) -> str:

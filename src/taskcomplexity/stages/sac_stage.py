@@ -22,13 +22,17 @@ import pandas as pd
 
 from taskcomplexity.config import build, result_identity
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.stage_log import outcome
 
 log = logging.getLogger(__name__)
 
 STAGE = "sac"
-VERSION = 1
+NUMERICS = Numerics(version=1, modules=(
+    "rl.settings", "rl.train", "rl.factories", "rl.layers", "rl.her", "rl.evaluation", "rl.snapshots", "policies",
+    "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.pybullet_env",
+    "tasks.goal_env", "tasks.gym_task", "stages.sac_stage",
+))
 CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
 SKIPPED_ATTR = "sac_skipped"
@@ -69,7 +73,7 @@ def run_sac_stage(
     from taskcomplexity.rl.snapshots import ACTORS_FILE
 
     identity = sac_identity(task, settings, solved_return=solved_return)
-    key = stage_key(STAGE, VERSION, identity)
+    key = stage_key(STAGE, NUMERICS, identity)
     if cached_only:
         found = cache.lookup(STAGE, key, config=identity)
         return found, found is not None
@@ -111,7 +115,7 @@ def training_plan(cache: Cache, runs) -> str:
     for entry, task, budgeted in runs:
         for variant in protocol_variants(task, budgeted):
             total += 1
-            key = stage_key(STAGE, VERSION, sac_identity(task, variant, solved_return=entry.solved_return))
+            key = stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
             if cache.lookup(STAGE, key) is None:
                 todo += 1
                 seed_steps += int(variant.total_steps) * len(variant.seeds)

@@ -39,7 +39,7 @@ import pandas as pd
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import stage_key
+from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.study import Study
 from taskcomplexity.verdict import (
     gather,
@@ -58,7 +58,10 @@ from taskcomplexity.verdict.references import correlations, quantities, referenc
 log = logging.getLogger(__name__)
 
 STAGE = "verdict"
-VERSION = 3
+NUMERICS = Numerics(version=3, modules=(
+    "verdict.gather", "verdict.judge", "verdict.information", "verdict.references", "metrics.registry",
+    "metrics.batches", "metrics.sac", "metrics.statistics", "stages.verdict_stage",
+))
 FILES = ("verdict.parquet", "summary.parquet", "references.parquet", "correlations.parquet", "values.parquet",
          "samples.parquet", "welch.parquet", "information.parquet")
 NULLS = ("pic", "poic")
@@ -102,7 +105,7 @@ def verdict_key(
     for stage, keys in (stages or {}).items():  # the further policy-sample stages (occupancy, learning path)
         if keys:
             payload[stage] = dict(keys)
-    return stage_key(STAGE, VERSION, payload)
+    return stage_key(STAGE, NUMERICS, payload)
 
 
 def run_verdict_stage(
