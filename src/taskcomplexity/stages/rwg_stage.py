@@ -34,14 +34,14 @@ log = logging.getLogger(__name__)
 
 STAGE = "rwg"
 EPISODES = (
-    "policies", "primitive_policies", "movement_primitives", "seeding", "rwg.kernel_backend", "rwg.gym_backend",
+    "policies", "primitive_policies", "movement_primitives", "seeding", "rwg", "rwg.kernel_backend", "rwg.gym_backend",
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
     "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
     "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets",
 )
 """The modules that make a task's episodes under a batch of sampled policies: the policy families and their
 sampling, the physics and reward kernels, the PyBullet and gymnasium envs, the backends that step them."""
-NUMERICS = Numerics(version=1, modules=(*EPISODES, "rwg", "stages.rwg_stage"))
+NUMERICS = Numerics(version=1, modules=(*EPISODES, "stages.rwg_stage"))
 RETURNS = "returns.parquet"
 
 
