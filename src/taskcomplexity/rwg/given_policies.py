@@ -3,7 +3,9 @@
 :func:`~taskcomplexity.rwg.simulate_chunk` draws policies ``start … stop−1`` from (network, prior);
 :func:`run_policies` runs any :class:`~taskcomplexity.policies.PolicyBatch` on the same backends,
 with the same reset states for (seed, policy index n, episode e). It composes the backends' own
-functions instead of changing :func:`simulate_chunk`, whose code is part of every RWG cache key.
+functions beside :func:`simulate_chunk` (written so when that function's code was part of every RWG cache
+key; keys now follow the stages' numerics versions, :mod:`taskcomplexity.stages.keys`, so the two may be
+folded into one dispatch).
 """
 
 from __future__ import annotations
