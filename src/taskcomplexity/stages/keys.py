@@ -32,6 +32,8 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
+PACKAGE = "taskcomplexity"
+
 
 @dataclass(frozen=True)
 class Numerics:
@@ -59,9 +61,6 @@ class Numerics:
     def qualified(self) -> tuple[str, ...]:
         """The declared modules' importable names (``taskcomplexity.<module>``)."""
         return tuple(f"{PACKAGE}.{m}" for m in self.modules)
-
-
-PACKAGE = "taskcomplexity"
 
 
 def canonical(value: Any) -> Any:
