@@ -5,17 +5,23 @@ an upgrade that changed a kernel's source) compiles them and writes machine code
 load it in milliseconds. Without a word, that first compilation looks like a progress bar stuck at 0 %
 for half a minute. :func:`announce_compilation` listens to numba's ``numba:compile`` event, which numba
 fires only on a cache miss (a real compilation, never a load from disk), and prints one line when the
-first compilation of the run starts and one with the total when the run ends.
+first compilation of the run starts; the total goes to the run log when the run ends (the console's last
+line stays the report's path).
 """
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 from numba.core import event
+
+from taskcomplexity.report.format import plural
+
+log = logging.getLogger(__name__)
 
 FIRST_RUN_SECONDS = 60
 """Seconds of compilation of a first ``experiment=smoke`` run on a 2-core machine (measured: README,
@@ -69,23 +75,23 @@ class CompilationLog(event.Listener):
         """One line on what was compiled in the run (None if nothing was)."""
         if not self.kernels:
             return None
-        return (f"numba compiled {self.kernels} kernel{'s' if self.kernels != 1 else ''} in {self.seconds:.0f} s; "
+        return (f"numba compiled {plural(self.kernels, 'kernel')} in {self.seconds:.0f} s; "
                 "they are cached on disk and load instantly in later runs")
 
 
 @contextmanager
 def announce_compilation(write: Callable[[str], None] | None = None) -> Iterator[CompilationLog]:
-    """Within the block, numba's compilations are announced once and summed; the sum is printed at exit.
+    """Within the block, numba's compilations are announced once and summed; the sum goes to the run log.
 
-    ``write`` prints a line (default: ``tqdm.write``, which keeps open progress bars intact).
+    ``write`` prints the announcement (default: ``tqdm.write``, which keeps open progress bars intact).
     """
     from tqdm.auto import tqdm
 
-    log = CompilationLog(write or (lambda line: tqdm.write(line)))
-    with event.install_listener("numba:compile", log):
+    compiled = CompilationLog(write or (lambda line: tqdm.write(line)))
+    with event.install_listener("numba:compile", compiled):
         try:
-            yield log
+            yield compiled
         finally:
-            line = log.summary()
+            line = compiled.summary()
             if line:
-                log._write(line)
+                log.debug(line)
