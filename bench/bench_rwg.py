@@ -33,9 +33,13 @@ import time
 
 import numpy as np
 
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies, select_policies
 from taskcomplexity.rwg import RWGSettings, _simulate_batched, initial_states, run_rwg
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.study import load_study_file
+from taskcomplexity.tasks.spec import make_task
+
+PAPER_STUDY = CONF_DIR / "study" / "seven_tasks.yaml"
 
 
 def throughput(task, settings, backend, repeats):
@@ -140,7 +144,8 @@ def main() -> None:
         print(f"{task.task_id:<26}{slow:>12,.0f}{fast:>14,.0f}{fast / slow:>9.0f}×")
     print(f"median ratio batched / pybullet: {statistics.median(ratios):.0f}×  (target ≥ 300×)")
 
-    tasks = (("two_link", "dense"),) if args.one_task else STUDY_TASKS
+    tasks = (("two_link", "dense"),) if args.one_task else [
+        (entry.selection["arm"], entry.selection["reward"]) for entry in load_study_file(PAPER_STUDY).tasks]
     print(f"\nfull scale on the batched backend: N = {args.policies:,} × M = {args.episodes} per task "
           "(obstacle: rwg.contacts=model)")
     print(f"{'task':<26}{'seconds':>10}{'peak GB':>10}{'env steps':>16}{'steps/s':>14}{'contact eps':>13}")

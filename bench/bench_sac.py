@@ -34,7 +34,7 @@ from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.rl import SACSettings, protocol_variants, train_sac, train_sac_seeds, with_budget
 from taskcomplexity.rl.factories import make_env
 from taskcomplexity.study import load_study_file
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.tasks.spec import make_task
 
 PAPER_STUDY = CONF_DIR / "study" / "seven_tasks.yaml"
 BENCH_TASK = ("one_link_1m0", "dense")
@@ -49,7 +49,8 @@ def paper_runs() -> list[tuple[str, str, bool, int]]:
     paper = SACSettings()  # the defaults are the published protocol
     study = load_study_file(PAPER_STUDY)
     runs = []
-    for arm, reward in STUDY_TASKS:
+    for entry in study.tasks:
+        arm, reward = entry.selection["arm"], entry.selection["reward"]
         task = make_task(arm, reward)
         budgeted = with_budget(paper, study.task(task.task_id).sac_steps, task_id=task.task_id)
         runs += [(arm, reward, v.her, v.total_steps) for v in protocol_variants(task, budgeted)]

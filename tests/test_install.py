@@ -15,6 +15,7 @@ study of two gym tasks takes 50–110 s and the seven-task smoke study 60–200 
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -26,7 +27,11 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from taskcomplexity.cli import CONF_DIR
+from taskcomplexity.study import load_study_file
+
 ROOT = Path(__file__).resolve().parents[1]
+SEVEN_IDS = sorted(task.id for task in load_study_file(CONF_DIR / "study" / "seven_tasks.yaml").tasks)
 SCRIPTS = ("taskcomplexity-rwg", "taskcomplexity-metrics", "taskcomplexity-sac", "taskcomplexity-verdict",
            "taskcomplexity-study")
 
@@ -161,6 +166,9 @@ def test_the_installed_study_command_runs_the_seven_task_smoke_study(venv, workd
     result = _run(venv, workdir, "taskcomplexity-study", "experiment=smoke", "sac.enabled=false")
     assert result.returncode == 0, result.stderr[-3000:]
     outputs = workdir / "outputs"
-    assert len(list(outputs.glob("cache/rwg/*/returns.parquet"))) == 7
+    samples = [json.loads(path.read_text()) for path in outputs.glob("cache/rwg/*/manifest.json")]
+    families = sorted((m["config"]["network"].get("family", "mlp"), m["label"].split()[0]) for m in samples)
+    # each task's MLP sample and its movement-primitive family's (the primitives stage's RWG)
+    assert families == sorted((family, task) for family in ("dmp", "mlp") for task in SEVEN_IDS)
     assert len(list(outputs.glob("cache/metrics/*/metrics.parquet"))) == 7
     assert (outputs / "reports" / "seven_tasks-smoke" / "index.html").is_file()

@@ -82,6 +82,19 @@ class DMPSpec:
         psi_sum = psi.sum(axis=1)
         return np.einsum("bk,bjk->bj", psi, weights) / psi_sum[:, None] * np.asarray(x)[:, None]
 
+    def phases(self, n: int, dt: float, duration: float) -> np.ndarray:
+        """x at the first ``n`` Euler sub-steps of length ``dt`` (s) from x(0) = 1: (n,).
+
+        The phase depends on time only, so every primitive of a batch shares it (and its basis
+        activations): :meth:`rollout` evaluates them once per sub-step, not once per primitive.
+        """
+        x = np.empty(n)
+        value = 1.0
+        for i in range(n):
+            x[i] = value
+            value = value - dt * self.alpha_x * value / duration
+        return x
+
     def rollout(self, weights: np.ndarray, start: np.ndarray, goal: np.ndarray, *, duration: float,
                 steps: int, extra_steps: int = 0) -> np.ndarray:
         """Positions y at ``steps`` + 1 equally spaced times over [0, ``duration``] (and ``extra_steps``
@@ -109,17 +122,19 @@ class DMPSpec:
         goal = np.asarray(goal, dtype=np.float64)
         amplitude = goal - y
         z = np.zeros_like(y)
-        x = np.ones(y.shape[0])
         dt = duration / (steps * self.substeps)
+        x = self.phases((steps + extra_steps) * self.substeps, dt, duration)
+        psi = self.activations(x)  # (n, K): one row per sub-step, shared by the batch
+        psi_sum = psi.sum(axis=1)
         out = np.empty((y.shape[0], steps + extra_steps + 1, y.shape[1]))
         out[:, 0] = y
         for step in range(steps + extra_steps):
-            for _ in range(self.substeps):
-                f = self.forcing(x, weights) * amplitude
+            for i in range(step * self.substeps, (step + 1) * self.substeps):
+                # :meth:`forcing` with the batch's common phase: the same products and sums, in the same order
+                f = np.einsum("k,bjk->bj", psi[i], weights) / psi_sum[i] * x[i] * amplitude
                 dz = (self.alpha_z * (self.beta_z * (goal - y) - z) + f) / duration
                 dy = z / duration
                 z, y = z + dt * dz, y + dt * dy
-                x = x - dt * self.alpha_x * x / duration
             out[:, step + 1] = y
         return out
 

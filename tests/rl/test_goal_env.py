@@ -9,18 +9,18 @@ import torch
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.goal_env import (
-    GOAL_GYM_IDS,
     GoalReachingEnv,
     compute_reward,
+    goal_gym_ids,
     goal_reached,
     join_observation,
     register_goal_tasks,
     split_observation,
 )
 from taskcomplexity.tasks.pybullet_env import ReachingEnv
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.tasks.spec import make_task, preset_tasks
 
-GOAL_TASKS = [t for t in STUDY_TASKS if t[0] != "two_link_obstacle"]
+GOAL_TASKS = [t for t in preset_tasks() if make_task(*t).arm.obstacle is None]
 STEPS = 120  # a few episodes of random actions per task (episodes last at most 50 steps)
 
 
@@ -85,7 +85,7 @@ def test_sparse_compute_reward_is_vectorised_and_uses_the_threshold():
 @pytest.mark.parametrize(("arm", "reward"), GOAL_TASKS)
 def test_registered_goal_env_observes_a_dict_inside_its_space(arm, reward):
     register_goal_tasks()
-    env = gymnasium.make(GOAL_GYM_IDS[(arm, reward)])
+    env = gymnasium.make(goal_gym_ids()[(arm, reward)])
     try:
         obs, _ = env.reset(seed=0)
         assert env.observation_space.contains(obs)

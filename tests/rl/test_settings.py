@@ -10,7 +10,7 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import SACSettings, protocol_variants, with_budget
 from taskcomplexity.study import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.tasks.spec import make_task, preset_tasks
 
 SAC_OPTIONS = sorted(p.stem for p in (CONF_DIR / "sac").glob("*.yaml"))
 # shared/spec/sac.md § Protocol: environment steps per seed.
@@ -153,7 +153,7 @@ def test_the_protocol_adds_her_to_the_sparse_tasks_only():
     settings = SACSettings()
     variants = {
         (arm, reward): [v.variant for v in protocol_variants(make_task(arm, reward), settings)]
-        for arm, reward in STUDY_TASKS
+        for arm, reward in preset_tasks()
     }
     assert variants[("two_link", "sparse")] == ["sac", "sac+her"]
     assert variants[("two_link_obstacle", "dense")] == ["sac"]

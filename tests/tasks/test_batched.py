@@ -11,7 +11,7 @@ from taskcomplexity.rwg import RWGSettings, initial_states, run_rwg
 from taskcomplexity.tasks import mechanics
 from taskcomplexity.tasks.batched import BatchedReaching
 from taskcomplexity.tasks.pybullet_env import ReachingEnv
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.tasks.spec import make_task, preset_tasks
 
 EPISODES = 6
 # Bullet's articulated-body algorithm and our closed-form chain dynamics sum the same terms in a
@@ -19,7 +19,7 @@ EPISODES = 6
 STATE_TOL = 1e-6
 
 
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+@pytest.mark.parametrize(("arm", "reward"), preset_tasks())
 def test_same_states_and_actions_give_the_same_trajectories(arm, reward):
     task = make_task(arm, reward)
     rng = np.random.default_rng(11)
@@ -106,14 +106,14 @@ def _check_backends_agree(arm, reward, policies, episodes, allowed):
         assert different.sum() <= fast.handoffs
 
 
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+@pytest.mark.parametrize(("arm", "reward"), preset_tasks())
 def test_rwg_returns_agree_across_backends(arm, reward):
     """16 policies × 8 episodes: at most 2 of the 128 episodes straddle a rounding decision."""
     _check_backends_agree(arm, reward, 16, 8, allowed=2)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+@pytest.mark.parametrize(("arm", "reward"), preset_tasks())
 def test_rwg_returns_agree_across_backends_at_1000_episodes(arm, reward):
     """50 policies × 20 episodes: fewer than 0.5 % of the episodes straddle a rounding decision."""
     _check_backends_agree(arm, reward, 50, 20, allowed=4)

@@ -10,11 +10,11 @@ import pytest
 
 import taskcomplexity  # noqa: F401 - registers the ids
 from taskcomplexity.tasks.pybullet_env import ReachingEnv
-from taskcomplexity.tasks.registration import GYM_IDS
-from taskcomplexity.tasks.spec import STUDY_TASKS
+from taskcomplexity.tasks.registration import gym_ids
+from taskcomplexity.tasks.spec import preset_tasks
 
-ONE_LINK = [t for t in STUDY_TASKS if not t[0].startswith("two_link")]
-TWO_LINK = [t for t in STUDY_TASKS if t[0].startswith("two_link")]
+ONE_LINK = [t for t in preset_tasks() if not t[0].startswith("two_link")]
+TWO_LINK = [t for t in preset_tasks() if t[0].startswith("two_link")]
 
 
 @pytest.fixture
@@ -36,7 +36,7 @@ def w(x, rounded):
     return (round(x, 2) if rounded else x) % (2 * math.pi)
 
 
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+@pytest.mark.parametrize(("arm", "reward"), preset_tasks())
 def test_observation_has_the_documented_length_and_dtype(make_env, arm, reward):
     env = make_env(arm, reward)
     obs, _ = env.reset(seed=0)
@@ -127,9 +127,21 @@ def test_two_link_terminates_inside_the_threshold_and_not_outside(make_env, arm,
             assert r == (0.0 if inside else -1.0)
 
 
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+def test_every_arm_preset_file_has_its_gym_ids():
+    """An arm added as conf/arm/<name>.yaml gets an id per reward it allows; no second list to keep."""
+    from taskcomplexity.cli import CONF_DIR
+
+    arms = sorted(path.stem for path in (CONF_DIR / "arm").glob("*.yaml"))
+    assert sorted({arm for arm, _ in preset_tasks()}) == arms
+    assert len(preset_tasks()) == 7  # 3 arms × {dense, sparse} + the obstacle arm × {dense}
+    assert ("two_link_obstacle", "sparse") not in preset_tasks()
+    for arm, reward in preset_tasks():
+        assert gym_ids()[(arm, reward)] in gymnasium.registry
+
+
+@pytest.mark.parametrize(("arm", "reward"), preset_tasks())
 def test_registered_id_truncates_after_50_steps(arm, reward):
-    env = gymnasium.make(GYM_IDS[(arm, reward)])
+    env = gymnasium.make(gym_ids()[(arm, reward)])
     try:
         env.reset(seed=0)
         dof = env.unwrapped.task.arm.dof
@@ -142,7 +154,7 @@ def test_registered_id_truncates_after_50_steps(arm, reward):
         env.close()
 
 
-@pytest.mark.parametrize(("arm", "reward"), STUDY_TASKS)
+@pytest.mark.parametrize(("arm", "reward"), preset_tasks())
 def test_same_seed_same_episode(make_env, arm, reward):
     rng = np.random.default_rng(7)
     dof = 1 if arm.startswith("one_link") else 2

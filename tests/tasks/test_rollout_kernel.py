@@ -10,7 +10,7 @@ from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
 from taskcomplexity.rwg import initial_states
 from taskcomplexity.tasks.batched import BatchedReaching
 from taskcomplexity.tasks.rollout_kernel import forward
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.tasks.spec import make_task, preset_tasks
 
 NETWORKS = [
     NetworkSpec(),  # the paper's: 32-32 ReLU, tanh output, no biases
@@ -18,7 +18,7 @@ NETWORKS = [
     NetworkSpec(hidden=(), output="linear", input_bias=True),  # linear policy: raw outputs, clipped by the step
     NetworkSpec(hidden=(5, 3), activation="tanh", output="linear", bias=True, input_bias=True),
 ]
-CASES = [(arm, reward, "pybullet") for arm, reward in STUDY_TASKS] + [("two_link_obstacle", "dense", "model")]
+CASES = [(arm, reward, "pybullet") for arm, reward in preset_tasks()] + [("two_link_obstacle", "dense", "model")]
 POLICIES, EPISODES = 8, 24
 # The kernel's matrix products sum in another order than NumPy's BLAS, so an action that is not saturated
 # can differ in its last bits; over 50 steps the joint state then differs by ~1e-11 (measured: < 5e-11 in

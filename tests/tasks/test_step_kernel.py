@@ -8,7 +8,7 @@ import torch
 
 from taskcomplexity.tasks import mechanics
 from taskcomplexity.tasks.batched import BatchedReaching
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.tasks.spec import make_task, preset_tasks
 
 B = 400
 
@@ -25,7 +25,7 @@ def _random_state(task, rng):
     return q0, qd0, target, action
 
 
-CASES = [(arm, reward, "pybullet") for arm, reward in STUDY_TASKS] + [("two_link_obstacle", "dense", "model")]
+CASES = [(arm, reward, "pybullet") for arm, reward in preset_tasks()] + [("two_link_obstacle", "dense", "model")]
 
 
 @pytest.mark.parametrize(("arm", "reward", "contacts"), CASES)

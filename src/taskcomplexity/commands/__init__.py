@@ -25,7 +25,8 @@ def entry_point(run):
     """The ``main()`` of an entry point whose work is ``run(cfg)``, a function of the composed config.
 
     ``main()`` refuses a bad ``group=option`` override in one line (before Hydra parses the command
-    line), then runs ``run`` as a Hydra app over the packaged configs. Hydra names the job (and its
+    line), then runs ``run`` as a Hydra app over the packaged configs, announcing numba's compilations
+    (:mod:`taskcomplexity.commands.compilation`). Hydra names the job (and its
     log file) after ``run``'s module: ``rwg``, ``metrics``, ``sac``, ``verdict``, ``study``.
     """
     import functools
@@ -34,11 +35,13 @@ def entry_point(run):
     import hydra
 
     from taskcomplexity.cli import CONF_DIR, check_overrides
+    from taskcomplexity.commands.compilation import announce_compilation
 
     @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
     @functools.wraps(run)
     def app(cfg) -> None:
-        run(cfg)
+        with announce_compilation():
+            run(cfg)
 
     def main() -> None:
         check_overrides(sys.argv)

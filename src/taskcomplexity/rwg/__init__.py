@@ -257,7 +257,7 @@ def _simulate_batched(
         with torch.no_grad(), policies:  # closing the batch ends its forward-pass threads
             state = policies.begin(obs.view(n_pol, n_ep, -1))
             for _ in range(task.max_steps):
-                if not env.active.any():
+                if not env.active.numpy().any():  # NumPy: no torch thread pool woken per step
                     break
                 before, handed = state, env.handoff.numpy().copy()
                 action, state = policies.respond(obs.view(n_pol, n_ep, -1), state)

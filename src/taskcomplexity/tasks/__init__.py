@@ -1,5 +1,5 @@
 """Reaching tasks: specs, URDF arms, the PyBullet reference environment and the batched backend."""
 
-from taskcomplexity.tasks.spec import REWARDS, STUDY_TASKS, ArmSpec, RewardSpec, TaskSpec, arm_presets, make_task
+from taskcomplexity.tasks.spec import REWARDS, ArmSpec, RewardSpec, TaskSpec, arm_presets, make_task, preset_tasks
 
-__all__ = ["REWARDS", "STUDY_TASKS", "ArmSpec", "RewardSpec", "TaskSpec", "arm_presets", "make_task"]
+__all__ = ["REWARDS", "ArmSpec", "RewardSpec", "TaskSpec", "arm_presets", "make_task", "preset_tasks"]

@@ -48,7 +48,7 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks import rewards
 from taskcomplexity.tasks.mechanics import xp_of
 from taskcomplexity.tasks.registration import MAX_EPISODE_STEPS
-from taskcomplexity.tasks.spec import STUDY_TASKS, TaskSpec, gym_id, make_task
+from taskcomplexity.tasks.spec import TaskSpec, gym_id, make_task, preset_tasks
 
 GOAL_SIZE = 2
 TWO_PI = 2.0 * math.pi
@@ -236,16 +236,15 @@ def goal_gym_id(arm: str, reward: str) -> str:
     return gym_id(arm, reward).removesuffix("-v0") + "-Goal-v0"
 
 
-GOAL_GYM_IDS: dict[tuple[str, str], str] = {
-    (arm, reward): goal_gym_id(arm, reward)
-    for arm, reward in STUDY_TASKS
-    if make_task(arm, reward).arm.obstacle is None
-}
+def goal_gym_ids() -> dict[tuple[str, str], str]:
+    """The goal view's gymnasium id of every preset task without an obstacle, by ``(arm, reward)``."""
+    return {(arm, reward): goal_gym_id(arm, reward) for arm, reward in preset_tasks()
+            if make_task(arm, reward).arm.obstacle is None}
 
 
 def register_goal_tasks() -> None:
-    """Register the goal view of every study task without an obstacle with gymnasium (idempotent)."""
-    for (arm, reward), env_id in GOAL_GYM_IDS.items():
+    """Register the goal view of every preset task without an obstacle with gymnasium (idempotent)."""
+    for (arm, reward), env_id in goal_gym_ids().items():
         if env_id not in gymnasium.registry:
             gymnasium.register(
                 id=env_id,
@@ -256,13 +255,13 @@ def register_goal_tasks() -> None:
 
 
 __all__ = [
-    "GOAL_GYM_IDS",
     "GOAL_SIZE",
     "GoalLayout",
     "GoalReachingEnv",
     "compute_reward",
     "goal_distance",
     "goal_gym_id",
+    "goal_gym_ids",
     "goal_layout",
     "goal_reached",
     "join_observation",

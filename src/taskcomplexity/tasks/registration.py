@@ -1,18 +1,23 @@
 """Gymnasium ids of this package, registered lazily (PyBullet is imported only by ``make``).
 
-The seven reaching tasks (``taskcomplexity/<Arm>-<Reward>-v0``) and the noisy CartPole of
-``study=cartpole_noise`` (``taskcomplexity/NoisyCartPole-v0``).
+Every reaching task of the arm presets (``taskcomplexity/<Arm>-<Reward>-v0``; the arms of
+``conf/arm/``, each with the rewards it allows: :func:`~taskcomplexity.tasks.spec.preset_tasks`) and
+the noisy CartPole of ``study=cartpole_noise`` (``taskcomplexity/NoisyCartPole-v0``).
 """
 
 from __future__ import annotations
 
 import gymnasium
 
-from taskcomplexity.tasks.spec import ENTRY_POINT, STUDY_TASKS, gym_id
+from taskcomplexity.tasks.spec import ENTRY_POINT, gym_id, preset_tasks
 
 MAX_EPISODE_STEPS = 50
 
-GYM_IDS: dict[tuple[str, str], str] = {(arm, reward): gym_id(arm, reward) for arm, reward in STUDY_TASKS}
+
+def gym_ids() -> dict[tuple[str, str], str]:
+    """The gymnasium id of every preset task, by ``(arm, reward)``."""
+    return {(arm, reward): gym_id(arm, reward) for arm, reward in preset_tasks()}
+
 
 NOISY_CARTPOLE_ID = "taskcomplexity/NoisyCartPole-v0"
 """CartPole-v0 with reset and dynamics noise (``tasks/classic/noisy_cartpole.py``)."""
@@ -20,7 +25,7 @@ NOISY_CARTPOLE_ID = "taskcomplexity/NoisyCartPole-v0"
 
 def register_tasks() -> None:
     """Register every task of the package with gymnasium (idempotent)."""
-    for (arm, reward), env_id in GYM_IDS.items():
+    for (arm, reward), env_id in gym_ids().items():
         if env_id not in gymnasium.registry:
             gymnasium.register(
                 id=env_id,

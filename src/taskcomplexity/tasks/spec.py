@@ -338,16 +338,16 @@ def arm_presets() -> dict[str, ArmSpec]:
 
 REWARDS: dict[str, RewardSpec] = {kind: RewardSpec(kind) for kind in REWARD_KINDS}
 
-# The seven tasks of the study, in the order tables list them.
-STUDY_TASKS: tuple[tuple[str, str], ...] = (
-    ("one_link_1m0", "dense"),
-    ("one_link_1m65", "dense"),
-    ("two_link", "dense"),
-    ("two_link_obstacle", "dense"),
-    ("one_link_1m0", "sparse"),
-    ("one_link_1m65", "sparse"),
-    ("two_link", "sparse"),
-)
+def preset_tasks() -> tuple[tuple[str, str], ...]:
+    """``(arm, reward)`` of every arm preset with every reward kind it allows, by arm name then reward.
+
+    The tasks a ``gymnasium.make`` id exists for (:mod:`taskcomplexity.tasks.registration`): an arm added
+    as ``conf/arm/<name>.yaml`` gets its ids with no second list; an arm with an obstacle gets only the
+    reward kinds defined with one (dense). A study's tasks are its own declaration (``conf/study/``).
+    """
+    presets = arm_presets()
+    return tuple((name, kind) for name in presets for kind in sorted(REWARDS)
+                 if presets[name].obstacle is None or reward_kind(kind).obstacle)
 
 
 def make_task(arm: str | ArmSpec, reward: str | RewardSpec = "dense", max_steps: int = 50) -> TaskSpec:
@@ -381,7 +381,7 @@ def task_from_id(task_id: str) -> TaskSpec:
 __all__ = [
     "arm_presets",
     "REWARDS",
-    "STUDY_TASKS",
+    "preset_tasks",
     "ArmSpec",
     "LinkSpec",
     "ObstacleSpec",
