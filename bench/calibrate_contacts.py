@@ -7,7 +7,7 @@
 Bullet's solver stops after its first sweep at a physics step where the forearm touches the block,
 for a new and a continuing contact. This script plays random-policy episodes of two_link_obstacle-dense
 on PyBullet, finds out at every such step whether PyBullet stopped after one sweep (how:
-``taskcomplexity/tasks/contact_calibration.py``), and prints each measured rate with its binomial
+``taskcomplexity/rwg/contact_calibration.py``), and prints each measured rate with its binomial
 standard error beside the constant, their distance in standard errors, and how the rate splits on the
 forearm–plane contact the mechanism needs. Rerun it after a PyBullet upgrade; a constant more than
 about 3 standard errors off should be replaced by the measured rate (``tests/tasks/test_contact_calibration.py``
@@ -25,7 +25,7 @@ import argparse
 import time
 
 from taskcomplexity.tasks import contact
-from taskcomplexity.tasks.contact_calibration import measure_single_sweep_rates
+from taskcomplexity.rwg.contact_calibration import measure_single_sweep_rates
 
 
 def main() -> None:

@@ -129,3 +129,16 @@ def build(cls: type[T], node: Any, key: str) -> T:
         takes_key = len(inspect.signature(validate).parameters) == 1
         validate(key) if takes_key else validate()
     return obj
+
+
+def canonical(value: Any) -> Any:
+    """Plain JSON-able form of dataclasses, tuples, numpy scalars and mappings (keys sorted on dump)."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: canonical(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {str(k): canonical(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [canonical(v) for v in value]
+    if hasattr(value, "item") and callable(value.item):
+        return value.item()
+    return value

@@ -1,4 +1,4 @@
-"""The contact model's one-sweep rates against a new measurement on PyBullet (tasks/contact_calibration.py).
+"""The contact model's one-sweep rates against a new measurement on PyBullet (rwg/contact_calibration.py).
 
 ``make calibrate-contacts`` prints the same measurement (N = 300 × M = 5, seed 0) beside the constants.
 """
@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from taskcomplexity.tasks import contact
-from taskcomplexity.tasks.contact_calibration import measure_single_sweep_rates, probes_leave_episodes_unchanged
+from taskcomplexity.rwg.contact_calibration import measure_single_sweep_rates, probes_leave_episodes_unchanged
 
 
 def test_probing_the_physics_steps_leaves_every_episode_bit_for_bit_unchanged():

@@ -26,11 +26,12 @@ downstream with it (their keys hold its key).
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 from dataclasses import dataclass
 from typing import Any
+
+from taskcomplexity.config import canonical
 
 PACKAGE = "taskcomplexity"
 
@@ -61,19 +62,6 @@ class Numerics:
     def qualified(self) -> tuple[str, ...]:
         """The declared modules' importable names (``taskcomplexity.<module>``)."""
         return tuple(f"{PACKAGE}.{m}" for m in self.modules)
-
-
-def canonical(value: Any) -> Any:
-    """Plain JSON-able form of dataclasses, tuples, numpy scalars and mappings (keys sorted on dump)."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: canonical(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, dict):
-        return {str(k): canonical(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [canonical(v) for v in value]
-    if hasattr(value, "item") and callable(value.item):
-        return value.item()
-    return value
 
 
 def stage_key(stage: str, numerics: Numerics, payload: dict[str, Any]) -> str:

@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 from filelock import FileLock
 
-from taskcomplexity.config import result_identity
+from taskcomplexity.config import canonical, result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.policies import NetworkSpec, PriorSpec
 from taskcomplexity.primitive_policies import PrimitiveSpec
@@ -27,7 +27,7 @@ from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
-from taskcomplexity.stages.keys import Numerics, canonical, stage_key
+from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.tasks.base import Task
 
 log = logging.getLogger(__name__)

@@ -12,6 +12,7 @@ import functools
 import math
 from dataclasses import dataclass
 
+from taskcomplexity.config import canonical
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.rewards import KINDS, REWARD_KINDS, reward_kind
 
@@ -275,8 +276,6 @@ class TaskSpec:
 
     def identity(self) -> dict:
         """Every field of the arm, the reward and the episode length (the cache keys of the arms)."""
-        from taskcomplexity.stages.keys import canonical
-
         return canonical(self)
 
     def validate(self) -> TaskSpec:
