@@ -157,10 +157,19 @@ def step_block(arm, inv, p, zone, index, n, state, dt, substeps, goals, lo):
     this one definition. ``reward[e]`` and ``done[e]`` are set for the stepped environments only.
     ``goals[e − lo]`` holds environment e's target terms (:func:`block_goals`).
     """
-    q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward, done = state
+    a1, a2, u, v, t1, t2, upper, touched = begin_step(p, index, n, state)
+    integrate_block(arm, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
+    finish_step(p, zone, index, n, state, goals, lo, a1, a2, u, v, upper, touched)
+
+
+@numba.njit(cache=True, inline="always")
+def begin_step(p, index, n, state):
+    """The first part of :func:`step_block`: the n environments' joint states and clipped torques as
+    length-n arrays (a1, a2, u, v, t1, t2), the upper arm's clearance before the step (``upper``, m; 0
+    without an obstacle) and the physics' ``touched`` flags (all False)."""
+    q, qd, action = state.q, state.qd, state.action
     two_links = p.dof == 2
     obstacle = p.obstacle > 0
-    handover = zone.mode == HANDOVER
     a1, u, t1 = np.empty(n), np.empty(n), np.empty(n)
     a2, v, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
     upper = np.zeros(n)
@@ -174,7 +183,16 @@ def step_block(arm, inv, p, zone, index, n, state, dt, substeps, goals, lo):
             t2[j] = min(max(action[e, 1], -1.0), 1.0) * p.torque_scale2
         if obstacle:
             upper[j] = upper_arm_clearance_at(p, a1[j])  # measured before the step
-    integrate_block(arm, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
+    return a1, a2, u, v, t1, t2, upper, touched
+
+
+@numba.njit(cache=True, inline="always")
+def finish_step(p, zone, index, n, state, goals, lo, a1, a2, u, v, upper, touched):
+    """The last part of :func:`step_block`: store the integrated states, observe, reward, keep the books."""
+    q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward, done = state
+    two_links = p.dof == 2
+    obstacle = p.obstacle > 0
+    handover = zone.mode == HANDOVER
     for j in range(n):
         e = index[j]
         reward[e], done[e] = 0.0, False
