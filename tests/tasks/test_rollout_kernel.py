@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import torch
@@ -70,6 +72,42 @@ def test_the_fused_rollout_gives_the_step_by_step_returns(arm, reward, contacts,
         assert new.handoff.numpy().any()
 
 
+def _kernel_actions(policies, obs, episodes):
+    """Every environment's action by the kernel's own forward pass (:func:`forward`), one policy at a time."""
+    weights, layer_sizes = policies.packed()
+    n_obs, width = obs.shape[1], int(layer_sizes.max())
+    actions = np.empty((obs.shape[0], int(layer_sizes[-1])))
+    for p in range(len(policies)):
+        h, g = np.zeros((width, episodes)), np.zeros((width, episodes))
+        h[:n_obs] = obs[p * episodes:(p + 1) * episodes].T
+        if policies.input_bias:
+            h[n_obs] = 1.0
+        out = forward(weights[p], layer_sizes, policies.biases is not None, policies.activation == "relu",
+                      policies.output == "tanh", h, g, episodes)
+        actions[p * episodes:(p + 1) * episodes] = out[:actions.shape[1]].T
+    return actions
+
+
+@pytest.mark.parametrize("network", NETWORKS[:2], ids=lambda n: f"{n.hidden}-{n.activation}-{n.output}")
+@pytest.mark.parametrize(("arm", "reward", "contacts"), CASES)
+def test_the_fused_rollout_is_the_step_by_step_path_bit_for_bit(arm, reward, contacts, network):
+    # with the kernel's own forward pass driving BatchedReaching.step, the fused rollout (the target's
+    # terms once per episode, the step split over begin_step / integrate_block / finish_step) gives the
+    # same returns, lengths, flags and final states exactly
+    task = make_task(arm, reward)
+    policies = sample_policies(network, PriorSpec(), task.observation_size, task.action_size, 5, np.arange(4))
+    joint_angles, target = initial_states(task, 5, policies.indices, EPISODES)
+    n = len(policies) * EPISODES
+    old = BatchedReaching(task, n, contacts)
+    obs = old.reset(torch.from_numpy(joint_angles.reshape(n, -1)), torch.from_numpy(target.reshape(n, 2)))
+    for _ in range(task.max_steps):
+        obs, _, _ = old.step(torch.from_numpy(_kernel_actions(policies, obs.numpy(), EPISODES)))
+    new = _run(task, policies, joint_angles, target, contacts, fused=True)
+    for name in ("returns", "steps", "success", "handoff", "contact", "joint_angles", "joint_velocities", "active"):
+        np.testing.assert_array_equal(getattr(new, name).numpy(), getattr(old, name).numpy(), name)
+    assert (old.steps.numpy() > 1).mean() > 0.5 and old.returns.numpy().std() > 0  # the episodes really ran
+
+
 @pytest.mark.parametrize("network", NETWORKS, ids=lambda n: f"{n.hidden}-{n.activation}-{n.output}")
 def test_the_kernels_forward_pass_is_the_policy_batchs(network):
     obs_size, act_size = 10, 2
@@ -97,6 +135,33 @@ def test_the_kernels_forward_pass_is_the_policy_batchs(network):
             alone = forward(weights[p], layer_sizes, network.bias, network.activation == "relu",
                             network.output == "tanh", h1, g1, 1)
             np.testing.assert_array_equal(alone[:act_size, 0], out[:act_size, e])
+            # and they are the plain in-order sums, bit for bit (what the blocked products must keep)
+            np.testing.assert_array_equal(out[:act_size, e], _in_order(weights[p], layer_sizes, network,
+                                                                        [*x[p, e], 1.0]))
+
+
+def _in_order(w, layer_sizes, network, x):
+    """The packed MLP on one input column by the definition: Σᵢ from 0 in order i = 0, 1, …, then the bias."""
+    off, layers = 0, len(layer_sizes) - 1
+    x = list(x[:layer_sizes[0]])
+    for k in range(layers):
+        fan_in, fan_out = int(layer_sizes[k]), int(layer_sizes[k + 1])
+        y = []
+        for j in range(fan_out):
+            total = 0.0
+            for i in range(fan_in):
+                total = total + float(w[off + j * fan_in + i]) * x[i]
+            y.append(total)
+        off += fan_in * fan_out
+        if network.bias:
+            y = [v + float(w[off + j]) for j, v in enumerate(y)]
+            off += fan_out
+        if k < layers - 1:
+            y = [max(v, 0.0) for v in y] if network.activation == "relu" else [math.tanh(v) for v in y]
+        elif network.output == "tanh":
+            y = [math.tanh(v) for v in y]
+        x = y
+    return np.array(x)
 
 
 def test_a_rollout_refuses_policies_that_do_not_fit_the_environments():

@@ -3,7 +3,8 @@
 Two forms, side by side:
 
 - scalar numba functions of one environment on the :class:`TaskParams` record
-  (:func:`observe_at`, :func:`upper_arm_clearance_at`, :func:`forearm_clearance_at`), which the batched
+  (:func:`observe_at`, split into the episode's constant target terms :func:`goal_at` and
+  :func:`observe_goal_at`; :func:`upper_arm_clearance_at`, :func:`forearm_clearance_at`), which the batched
   backend's step kernel (:mod:`taskcomplexity.tasks.step_kernel`) inlines;
 - array functions for the PyBullet reference and the batched backend's reset (leading dimensions
   are batch dimensions). :func:`upper_arm_clearance`, :func:`forearm_clearance` and
@@ -172,16 +173,26 @@ def forearm_clearance_at(p, elbow_x, elbow_y, eff_x, eff_y):
 
 
 @numba.njit(cache=True, inline="always")
-def observe_at(p, q1, q2, qd1, radius, angle, obs):
-    """:func:`observe` of one environment (q2 unused by a 1-link arm): fills ``obs`` and returns
-    (d, elbow x, elbow y, effector x, effector y), m (the elbow is (0, 0) for a 1-link arm)."""
+def goal_at(p, radius, angle):
+    """The observation's target terms of one environment, constant over its episode: (θ, gx, gy).
+
+    θ is the observed target angle (1-link arm: wrapped, and rounded where the task rounds; 2-link arm: the
+    raw angle, unobserved), (gx, gy) = ρ·(cos θ, sin θ) the Cartesian target, m. Computed once per
+    episode by the fused rollout; :func:`observe_goal_at` takes them.
+    """
+    theta = wrap_at(angle, p.round_scale) if p.dof == 1 else angle
+    return theta, radius * np.cos(theta), radius * np.sin(theta)
+
+
+@numba.njit(cache=True, inline="always")
+def observe_goal_at(p, q1, q2, qd1, theta, gx, gy, obs):
+    """:func:`observe_at` with the target's terms (θ, gx, gy) of :func:`goal_at`: fills ``obs`` and returns
+    (d, elbow x, elbow y, effector x, effector y), m."""
     scale = p.round_scale
     if p.dof == 1:
         l1 = p.length1
         phi = wrap_at(q1, scale)
         ex, ey = l1 * np.cos(phi), l1 * np.sin(phi)
-        theta = wrap_at(angle, scale)
-        gx, gy = radius * np.cos(theta), radius * np.sin(theta)
         dx, dy = ex - gx, ey - gy
         obs[0], obs[1], obs[2], obs[3], obs[4] = phi, ex, ey, theta, gx
         obs[5], obs[6], obs[7], obs[8] = gy, dx, dy, qd1
@@ -191,11 +202,18 @@ def observe_at(p, q1, q2, qd1, radius, angle, obs):
     ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
     elbow_x, elbow_y = p.length1 * ca, p.length1 * sa
     ex, ey = elbow_x + p.length2 * cb, elbow_y + p.length2 * sb
-    gx, gy = radius * np.cos(angle), radius * np.sin(angle)
     dx, dy = ex - gx, ey - gy
     obs[0], obs[1], obs[2], obs[3], obs[4] = ca, cb, sa, sb, gx
     obs[5], obs[6], obs[7], obs[8], obs[9] = gy, ex, ey, dx, dy
     return np.sqrt(dx * dx + dy * dy), elbow_x, elbow_y, ex, ey
+
+
+@numba.njit(cache=True, inline="always")
+def observe_at(p, q1, q2, qd1, radius, angle, obs):
+    """:func:`observe` of one environment (q2 unused by a 1-link arm) at polar target (ρ, angle): fills
+    ``obs`` and returns (d, elbow x, elbow y, effector x, effector y), m (the elbow is (0, 0) for a 1-link arm)."""
+    theta, gx, gy = goal_at(p, radius, angle)
+    return observe_goal_at(p, q1, q2, qd1, theta, gx, gy, obs)
 
 
 def xp_of(x):

@@ -24,7 +24,7 @@ import numba
 import numpy as np
 
 from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix
-from taskcomplexity.tasks.step_kernel import KernelTask, env_state, gather, step_block
+from taskcomplexity.tasks.step_kernel import KernelTask, block_goals, env_state, gather, step_block
 
 
 @numba.njit(cache=True, inline="always")
@@ -164,6 +164,7 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
         w = weights[policy]
         index = np.empty(hi - lo, dtype=np.int64)
         h, g = np.empty((width, hi - lo)), np.empty((width, hi - lo))
+        goals = block_goals(p, state.target, lo, hi)  # the target's terms, once per episode
         if input_bias:
             h[n_obs] = 1.0
         for _ in range(max_steps):
@@ -181,7 +182,7 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
                     action[index[j], k] = row[j]
             if input_bias:  # the forward pass may have used h's constant row as a work row
                 h[n_obs] = 1.0
-            step_block(arm, inv, p, zone, index, n, state, dt, substeps)
+            step_block(arm, inv, p, zone, index, n, state, dt, substeps, goals, lo)
 
 
 def rollout(

@@ -34,7 +34,8 @@ from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, integrate_block, inv
 from taskcomplexity.tasks.mechanics import (
     TaskParams,
     forearm_clearance_at,
-    observe_at,
+    goal_at,
+    observe_goal_at,
     upper_arm_clearance_at,
 )
 
@@ -133,8 +134,18 @@ def gather(active, steps, max_steps, lo, hi, index):
     return n
 
 
+@numba.njit(cache=True, inline="always")
+def block_goals(p, target, lo, hi):
+    """(hi − lo, 3): :func:`~taskcomplexity.tasks.mechanics.goal_at` (θ, gx, gy) of environments lo … hi−1,
+    constant over their episodes (the fused rollout computes them once per episode, :func:`_step` per step)."""
+    goals = np.empty((hi - lo, 3))
+    for e in range(lo, hi):
+        goals[e - lo, 0], goals[e - lo, 1], goals[e - lo, 2] = goal_at(p, target[e, 0], target[e, 1])
+    return goals
+
+
 @numba.njit(cache=True)
-def step_block(arm, inv, p, zone, index, n, state, dt, substeps):
+def step_block(arm, inv, p, zone, index, n, state, dt, substeps, goals, lo):
     """One environment step of the n active environments ``index[:n]``, in place (the mechanics of one step).
 
     ``arm`` is the :class:`~taskcomplexity.tasks.dynamics.ArmParams` record, ``p`` the
@@ -144,11 +155,21 @@ def step_block(arm, inv, p, zone, index, n, state, dt, substeps):
     each environment's arithmetic is its own, so its result does not depend on which others share the
     block. Both :func:`step` and the fused RWG rollout (:mod:`taskcomplexity.tasks.rollout_kernel`) call
     this one definition. ``reward[e]`` and ``done[e]`` are set for the stepped environments only.
+    ``goals[e − lo]`` holds environment e's target terms (:func:`block_goals`).
     """
-    q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward, done = state
+    a1, a2, u, v, t1, t2, upper, touched = begin_step(p, index, n, state)
+    integrate_block(arm, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
+    finish_step(p, zone, index, n, state, goals, lo, a1, a2, u, v, upper, touched)
+
+
+@numba.njit(cache=True, inline="always")
+def begin_step(p, index, n, state):
+    """The first part of :func:`step_block`: the n environments' joint states and clipped torques as
+    length-n arrays (a1, a2, u, v, t1, t2), the upper arm's clearance before the step (``upper``, m; 0
+    without an obstacle) and the physics' ``touched`` flags (all False)."""
+    q, qd, action = state.q, state.qd, state.action
     two_links = p.dof == 2
     obstacle = p.obstacle > 0
-    handover = zone.mode == HANDOVER
     a1, u, t1 = np.empty(n), np.empty(n), np.empty(n)
     a2, v, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
     upper = np.zeros(n)
@@ -162,7 +183,16 @@ def step_block(arm, inv, p, zone, index, n, state, dt, substeps):
             t2[j] = min(max(action[e, 1], -1.0), 1.0) * p.torque_scale2
         if obstacle:
             upper[j] = upper_arm_clearance_at(p, a1[j])  # measured before the step
-    integrate_block(arm, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
+    return a1, a2, u, v, t1, t2, upper, touched
+
+
+@numba.njit(cache=True, inline="always")
+def finish_step(p, zone, index, n, state, goals, lo, a1, a2, u, v, upper, touched):
+    """The last part of :func:`step_block`: store the integrated states, observe, reward, keep the books."""
+    q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward, done = state
+    two_links = p.dof == 2
+    obstacle = p.obstacle > 0
+    handover = zone.mode == HANDOVER
     for j in range(n):
         e = index[j]
         reward[e], done[e] = 0.0, False
@@ -177,8 +207,9 @@ def step_block(arm, inv, p, zone, index, n, state, dt, substeps):
         q[e, 0], qd[e, 0] = a1[j], u[j]
         if two_links:
             q[e, 1], qd[e, 1] = a2[j], v[j]
-        d, elbow_x, elbow_y, ex, ey = observe_at(
-            p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], target[e, 0], target[e, 1], obs[e]
+        goal = goals[e - lo]
+        d, elbow_x, elbow_y, ex, ey = observe_goal_at(
+            p, q[e, 0], q[e, 1] if two_links else 0.0, qd[e, 0], goal[0], goal[1], goal[2], obs[e]
         )
         c1 = min(max(action[e, 0], -1.0), 1.0)
         effort = c1 * c1
@@ -221,7 +252,7 @@ def _step(arm, p, zone, state, dt, substeps):
         index = np.empty(hi - lo, dtype=np.int64)
         n = gather(active, steps, NO_LIMIT, lo, hi, index)
         if n > 0:
-            step_block(arm, inv, p, zone, index, n, state, dt, substeps)
+            step_block(arm, inv, p, zone, index, n, state, dt, substeps, block_goals(p, state.target, lo, hi), lo)
 
 
 class KernelTask(NamedTuple):
