@@ -27,7 +27,7 @@ import numpy as np
 import torch
 from gymnasium import spaces
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies
 from taskcomplexity.rwg import RWGSettings, run_rwg
 from taskcomplexity.tasks.base import decode_actions
 from taskcomplexity.tasks.classic import KERNELS

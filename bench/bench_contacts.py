@@ -20,7 +20,7 @@ from scipy import stats
 from taskcomplexity.metrics.batches import batch_estimates, welch_test
 from taskcomplexity.metrics.pic import pic
 from taskcomplexity.metrics.poic import poic
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, run_rwg
 from taskcomplexity.tasks.spec import make_task
 

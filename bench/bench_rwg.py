@@ -34,7 +34,7 @@ import time
 import numpy as np
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies, select_policies
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policies
 from taskcomplexity.rwg import RWGSettings, _simulate_batched, initial_states, run_rwg
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks.spec import make_task
@@ -74,7 +74,7 @@ def fused_against_stepwise(arm, reward, contacts, policies, episodes, repeats):
 
 FULL_SCALE = """
 import json, resource, time
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, run_rwg
 from taskcomplexity.tasks.spec import make_task
 task = make_task({arm!r}, {reward!r})

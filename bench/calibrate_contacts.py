@@ -24,8 +24,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from taskcomplexity.tasks import contact
 from taskcomplexity.rwg.contact_calibration import measure_single_sweep_rates
+from taskcomplexity.tasks import contact
 
 
 def main() -> None:

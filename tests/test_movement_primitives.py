@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from taskcomplexity.movement_primitives import DMPSpec
+from taskcomplexity.policies.movement_primitives import DMPSpec
 
 DURATION, STEPS = 1.0, 50
 

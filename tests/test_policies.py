@@ -13,7 +13,7 @@ from gymnasium import spaces
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.rwg_stage import NUMERICS, STAGE, RWGRequest
@@ -42,7 +42,7 @@ def test_batched_forward_pass_equals_each_policy_on_its_own(network):
 
 
 def test_the_forward_pass_threads_belong_to_the_batch_and_end_with_it():
-    from taskcomplexity import policies as module
+    from taskcomplexity.policies import mlp as module
 
     # no module-global mutable state (a shared pool used to live in one)
     assert not [k for k, v in vars(module).items() if isinstance(v, list | dict | set) and not k.startswith("__")]

@@ -7,9 +7,9 @@ import pytest
 import torch
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.families import network_from_config, sample_family
-from taskcomplexity.policies import NetworkSpec, PriorSpec
-from taskcomplexity.primitive_policies import ArmGeometry, PrimitiveSpec, primitive_parameters, sample_primitives
+from taskcomplexity.policies.families import network_from_config, sample_family
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.policies.primitives import ArmGeometry, PrimitiveSpec, primitive_parameters, sample_primitives
 from taskcomplexity.rwg import RWGSettings, initial_states, resolve_backend, run_rwg
 from taskcomplexity.stages.rwg_stage import RWGRequest
 from taskcomplexity.tasks.batched import BatchedReaching

@@ -217,8 +217,8 @@ def _outputs_of(args: tuple) -> str:
 
 def sampler_from_config(cfg: Any):
     """(the network's spec, of its family, and the PriorSpec) of a composed config."""
-    from taskcomplexity.families import network_from_config
-    from taskcomplexity.policies import PriorSpec
+    from taskcomplexity.policies.families import network_from_config
+    from taskcomplexity.policies.mlp import PriorSpec
 
     return network_from_config(cfg.network), build(PriorSpec, cfg.prior, "prior")
 

@@ -128,8 +128,8 @@ def run_all(root: Path) -> dict[str, Golden]:
 
 
 def _chain(root: Path) -> dict[str, Golden]:
-    from taskcomplexity.policies import NetworkSpec, PriorSpec
-    from taskcomplexity.primitive_policies import PrimitiveSpec
+    from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+    from taskcomplexity.policies.primitives import PrimitiveSpec
     from taskcomplexity.rl import protocol_variants
     from taskcomplexity.rl.settings import SACSettings
     from taskcomplexity.rl.snapshots import ACTORS_FILE

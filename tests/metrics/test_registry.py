@@ -9,7 +9,7 @@ import pytest
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY, Metric, Registry, bootstrap_indices
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache

@@ -14,7 +14,7 @@ import pytest
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics import DEFAULT_REGISTRY, pic_miller_madow
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.diagnostics_stage import (

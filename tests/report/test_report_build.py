@@ -17,7 +17,7 @@ import pytest
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.report.format import mean_sd
 from taskcomplexity.rwg import RWGSettings

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest

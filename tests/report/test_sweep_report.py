@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.sweep import JOB_FILE, cell_names, sweep_jobs, write_sweep_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_stage

@@ -26,7 +26,7 @@ STAGES = ("rwg", "metrics", "diagnostics", "primitives", "occupancy", "learning_
 KEYS_SCRIPT = """
 import importlib, json, sys
 import taskcomplexity
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rl.settings import SACSettings
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.keys import stage_key
@@ -138,7 +138,7 @@ def test_metrics_and_diagnostics_keys_follow_their_declarations():
 
 
 def test_the_rwg_key_follows_the_settings_declaration():
-    from taskcomplexity.policies import NetworkSpec, PriorSpec
+    from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
     from taskcomplexity.rwg import RWGSettings
     from taskcomplexity.stages.rwg_stage import RWGRequest
     from taskcomplexity.tasks.spec import make_task

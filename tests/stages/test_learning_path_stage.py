@@ -12,7 +12,7 @@ import torch
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.learning_path import LearningPath
 from taskcomplexity.metrics.sample import Estimation, Sample
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rl.factories import make_actor_critic
 from taskcomplexity.rl.snapshots import ActorSnapshots, actor_layers
 from taskcomplexity.rwg import RWGSettings, simulate_chunk
@@ -45,7 +45,7 @@ def test_given_policies_run_exactly_as_rwg_runs_the_same_policies(task, backend)
     network = NetworkSpec(hidden=(8,))
     settings = RWGSettings(policies=4, episodes=3, seed=5)
     reference = simulate_chunk(task, network, PriorSpec(), settings, 2, 4, backend=backend)
-    from taskcomplexity.policies import sample_policies
+    from taskcomplexity.policies.mlp import sample_policies
 
     policies = sample_policies(network, PriorSpec(), task.observation_size, task.action_size, 5, np.arange(2, 4))
     got = run_policies(task, policies, seed=5, episodes=3, backend=backend)

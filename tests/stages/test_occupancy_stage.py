@@ -15,7 +15,7 @@ from omegaconf import open_dict
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies
 from taskcomplexity.report.format import of_total
 from taskcomplexity.rwg.occupancy import pair_size, record_occupancies
 from taskcomplexity.seeding import episode_reset_seeds

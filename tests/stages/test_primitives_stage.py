@@ -9,8 +9,8 @@ import pytest
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.sample import Sample
-from taskcomplexity.policies import NetworkSpec, PriorSpec
-from taskcomplexity.primitive_policies import PrimitiveSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.policies.primitives import PrimitiveSpec
 from taskcomplexity.rwg import RWGSettings, run_rwg
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.metrics_stage import MetricsSettings

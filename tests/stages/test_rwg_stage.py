@@ -12,7 +12,7 @@ import pytest
 
 from taskcomplexity.cli import rwg_request_from_config
 from taskcomplexity.commands import metrics as metrics_command
-from taskcomplexity.policies import NetworkSpec, PriorSpec, policy_parameters
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage

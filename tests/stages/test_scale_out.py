@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache, file_digest
 from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage

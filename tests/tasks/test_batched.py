@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, initial_states, run_rwg
 from taskcomplexity.tasks import mechanics
 from taskcomplexity.tasks.batched import BatchedReaching

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, initial_states, run_rwg
 from taskcomplexity.rwg.kernel_backend import reset_seeds
 from taskcomplexity.stages.rwg_stage import RWGRequest

@@ -22,7 +22,7 @@ import pytest
 import torch
 from scipy import stats
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies, select_policy
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import decode_actions, encode_observations

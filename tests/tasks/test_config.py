@@ -11,8 +11,8 @@ import yaml
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.families import network_from_config
-from taskcomplexity.policies import PriorSpec
+from taskcomplexity.policies.families import network_from_config
+from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.rewards import REWARD_KINDS, reward_kind
 from taskcomplexity.tasks.spec import REWARDS, ArmSpec, RewardSpec, arm_presets, make_task

@@ -14,7 +14,7 @@ import pytest
 import torch
 from scipy import stats
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, run_rwg
 from taskcomplexity.tasks.batched import BatchedReaching
 from taskcomplexity.tasks.pybullet_env import ReachingEnv

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from taskcomplexity.tasks import contact
 from taskcomplexity.rwg.contact_calibration import measure_single_sweep_rates, probes_leave_episodes_unchanged
+from taskcomplexity.tasks import contact
 
 
 def test_probing_the_physics_steps_leaves_every_episode_bit_for_bit_unchanged():

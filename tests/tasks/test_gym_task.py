@@ -12,7 +12,7 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies, select_policy
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations

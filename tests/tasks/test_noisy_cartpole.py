@@ -18,7 +18,7 @@ from test_classic_kernels import KernelEnv
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies, select_policy
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.study import load_study_file

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies
 from taskcomplexity.rwg import initial_states
 from taskcomplexity.tasks.batched import BatchedReaching
 from taskcomplexity.tasks.rollout_kernel import forward

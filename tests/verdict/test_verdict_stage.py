@@ -10,7 +10,7 @@ import pytest
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.policies import NetworkSpec, PriorSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.metrics_stage import MetricsSettings

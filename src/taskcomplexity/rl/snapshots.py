@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from taskcomplexity.policies import PolicyBatch
+from taskcomplexity.policies.mlp import PolicyBatch
 from taskcomplexity.rl.layers import SeedBatchedLinear
 
 ACTORS_FILE = "actors.npz"

@@ -17,9 +17,9 @@ from threadpoolctl import threadpool_limits
 
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.families import sample_family
-from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec
-from taskcomplexity.primitive_policies import PrimitiveBatch, PrimitiveSpec
+from taskcomplexity.policies.families import sample_family
+from taskcomplexity.policies.mlp import NetworkSpec, PolicyBatch, PriorSpec
+from taskcomplexity.policies.primitives import PrimitiveBatch, PrimitiveSpec
 from taskcomplexity.progress import Progress, progress_bar
 from taskcomplexity.rwg.gym_backend import ENVIRONMENTS_IN_FLIGHT, GymRollout
 from taskcomplexity.seeding import episode_uniforms

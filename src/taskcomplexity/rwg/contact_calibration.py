@@ -185,7 +185,7 @@ def _body(client, name: str) -> int:
 
 def _episodes(task, policies: int, episodes: int, seed: int):
     """(policy, joint angles, target) of every RWG episode: the default sampler (mlp32, normal prior)."""
-    from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
+    from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies
     from taskcomplexity.rwg import initial_states
 
     joint_angles, target = initial_states(task, seed, np.arange(policies), episodes)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from taskcomplexity.policies import PolicyBatch
+from taskcomplexity.policies.mlp import PolicyBatch
 from taskcomplexity.rwg import ReturnChunk, _simulate_batched, _simulate_pybullet, initial_states, resolve_backend
 from taskcomplexity.rwg.gym_backend import GymRollout
 from taskcomplexity.tasks.base import Task

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 from gymnasium import spaces
 
-from taskcomplexity.policies import PolicyBatch
+from taskcomplexity.policies.mlp import PolicyBatch
 from taskcomplexity.rwg.env_checks import check_observation, check_reward
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations

@@ -20,7 +20,7 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import PolicyBatch, select_policies
+from taskcomplexity.policies.mlp import PolicyBatch, select_policies
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.classic import ClassicKernel, kernel_for
 from taskcomplexity.tasks.classic.kernels import observe_all, step_all, step_serial

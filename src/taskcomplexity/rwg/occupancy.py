@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from gymnasium import spaces
 
-from taskcomplexity.policies import PolicyBatch, select_policy
+from taskcomplexity.policies.mlp import PolicyBatch, select_policy
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations, flat_size
 from taskcomplexity.tasks.spec import TaskSpec

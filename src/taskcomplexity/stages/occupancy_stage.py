@@ -32,7 +32,7 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.occupancy import OccupancySample, occupancy_distances
 from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.policies import sample_policies
+from taskcomplexity.policies.mlp import sample_policies
 from taskcomplexity.seeding import derive_seed
 from taskcomplexity.stages.actor_stages import over_actor_tasks
 from taskcomplexity.stages.cache import Artefact, Cache

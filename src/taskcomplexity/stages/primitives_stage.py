@@ -28,12 +28,12 @@ import pandas as pd
 
 from taskcomplexity.config import build, setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.families import network_from_config
 from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Sample
-from taskcomplexity.policies import PriorSpec
-from taskcomplexity.primitive_policies import PrimitiveSpec
+from taskcomplexity.policies.families import network_from_config
+from taskcomplexity.policies.mlp import PriorSpec
+from taskcomplexity.policies.primitives import PrimitiveSpec
 from taskcomplexity.progress import stage_bar
 from taskcomplexity.rwg import resolve_backend
 from taskcomplexity.stages.cache import Artefact, Cache

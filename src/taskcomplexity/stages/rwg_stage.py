@@ -21,8 +21,8 @@ from filelock import FileLock
 
 from taskcomplexity.config import canonical, result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
-from taskcomplexity.policies import NetworkSpec, PriorSpec
-from taskcomplexity.primitive_policies import PrimitiveSpec
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.policies.primitives import PrimitiveSpec
 from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
@@ -34,7 +34,8 @@ log = logging.getLogger(__name__)
 
 STAGE = "rwg"
 EPISODES = (
-    "policies", "primitive_policies", "movement_primitives", "seeding", "rwg", "rwg.kernel_backend", "rwg.gym_backend",
+    "policies.mlp", "policies.primitives", "policies.movement_primitives", "seeding",
+    "rwg", "rwg.kernel_backend", "rwg.gym_backend",
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
     "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
     "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets",

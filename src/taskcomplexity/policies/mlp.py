@@ -62,7 +62,7 @@ class NetworkSpec:
         Output activation. ``linear``: Discrete actions are the argmax of the raw outputs, Box actions
         decode tanh(output), i.e. high·tanh(output) for symmetric bounds (as in the original family).
     family : str
-        ``mlp`` (:mod:`taskcomplexity.families` declares the others).
+        ``mlp`` (:mod:`taskcomplexity.policies.families` declares the others).
     """
 
     hidden: tuple[int, ...] = (32, 32)

@@ -1,7 +1,7 @@
 """The movement-primitive policy family (``network=dmp``): RWG over the weights of a DMP per joint.
 
 The paper's first proposal: a policy family with an inductive bias for reaching. A policy θ is one
-discrete DMP per joint (:mod:`taskcomplexity.movement_primitives`), K weights each; θ ~ the prior
+discrete DMP per joint (:mod:`taskcomplexity.policies.movement_primitives`), K weights each; θ ~ the prior
 (``prior=…``, as for an MLP: a (J, K) weight matrix with fan_in K and fan_out J), scaled by α_z·β_z
 so that a unit weight shapes the movement as strongly as the spring pulls it to its goal.
 
@@ -38,8 +38,8 @@ import numpy as np
 import torch
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.movement_primitives import DMPSpec
-from taskcomplexity.policies import PriorSpec
+from taskcomplexity.policies.mlp import PriorSpec
+from taskcomplexity.policies.movement_primitives import DMPSpec
 from taskcomplexity.seeding import policy_generator
 
 FAMILY = "dmp"
@@ -56,7 +56,7 @@ class PrimitiveSpec:
     basis : int
         K, Gaussian basis functions per joint.
     alpha_z, alpha_x : float
-        The DMP's spring gain and phase decay (:class:`~taskcomplexity.movement_primitives.DMPSpec`).
+        The DMP's spring gain and phase decay (:class:`~taskcomplexity.policies.movement_primitives.DMPSpec`).
     movement_steps : int
         τ, the movement's duration, in environment steps.
     gain : float

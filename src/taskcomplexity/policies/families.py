@@ -3,8 +3,8 @@
 - ``mlp`` (the default; a config without ``family`` is one): the paper's random MLPs,
   :class:`~taskcomplexity.policies.NetworkSpec` → :class:`~taskcomplexity.policies.PolicyBatch`;
 - ``dmp``: the paper's first proposal, a movement primitive per joint of a reaching arm,
-  :class:`~taskcomplexity.primitive_policies.PrimitiveSpec` →
-  :class:`~taskcomplexity.primitive_policies.PrimitiveBatch`.
+  :class:`~taskcomplexity.policies.primitives.PrimitiveSpec` →
+  :class:`~taskcomplexity.policies.primitives.PrimitiveBatch`.
 
 Both batches step the same way (``begin(observations) → state``, ``respond(observations, state) →
 (actions, state)``, ``select(rows)``, ``indices``), so the backends run either.
@@ -18,8 +18,8 @@ import numpy as np
 
 from taskcomplexity.config import build, plain
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies import NetworkSpec, PolicyBatch, PriorSpec, sample_policies
-from taskcomplexity.primitive_policies import PrimitiveBatch, PrimitiveSpec, sample_primitives
+from taskcomplexity.policies.mlp import NetworkSpec, PolicyBatch, PriorSpec, sample_policies
+from taskcomplexity.policies.primitives import PrimitiveBatch, PrimitiveSpec, sample_primitives
 
 FAMILIES: dict[str, type] = {"mlp": NetworkSpec, "dmp": PrimitiveSpec}
 """``network.family`` → the dataclass of its settings."""
