@@ -38,12 +38,14 @@ from numba.core import types
 from numba.core.extending import intrinsic
 from threadpoolctl import threadpool_limits
 
-from taskcomplexity.policies import NetworkSpec, PriorSpec, sample_policies
+from taskcomplexity.cli import CONF_DIR
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies
 from taskcomplexity.rwg import initial_states
+from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks import contact, rollout_kernel
 from taskcomplexity.tasks.batched import BatchedReaching
 from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix
-from taskcomplexity.tasks.spec import STUDY_TASKS, make_task
+from taskcomplexity.tasks.spec import make_task
 from taskcomplexity.tasks.step_kernel import (
     begin_step,
     block_goals,
@@ -52,6 +54,8 @@ from taskcomplexity.tasks.step_kernel import (
     gather,
 )
 
+SEVEN_TASKS = [(t.selection["arm"], t.selection["reward"])
+               for t in load_study_file(CONF_DIR / "study" / "seven_tasks.yaml").tasks]
 PARTS = ("book", "forward", "physics", "contacts", "obs/reward")
 BOOK, FORWARD, FREE, INTEGRATE, OBSERVE, ACTIVE, BLOCK_STEPS, TOUCHED = range(8)  # slots of _timed_rollout's t
 
@@ -263,7 +267,7 @@ def main() -> None:
           f"mlp32, one numba thread, median of {args.repeats} (CPU time; split by the cycle counter)")
     print(f"{'task':<26}{'real':>7}{'sum':>7}" + "".join(f"{p:>12}" for p in PARTS) + f"{'envs/block':>12}")
     floors = {}
-    for arm, reward in STUDY_TASKS:
+    for arm, reward in SEVEN_TASKS:
         task = make_task(arm, reward)
         env, batch = chunk(task, 1, 4)
         weights, layer_sizes = batch.packed()
