@@ -116,7 +116,7 @@ def scratch():
     return np.empty((2, 3)), np.empty((2, 2)), np.empty((4, 6)), np.empty(4)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _clip(ax, ay, bx, by, cx, cy, tx, ty, half, out, count):
     """Clip segment a–b to the slab |(p − c)·t| ≤ half; append its ends to ``out`` (x, y rows)."""
     sa = (ax - cx) * tx + (ay - cy) * ty
@@ -279,7 +279,7 @@ def solve(zone, l1, q1, inv, u, v, points, count, nx, ny, dt, rows, impulse, sin
     return u + du, v + dv
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def single_sweep(zone, fresh, q1, q2):
     """Whether Bullet's solver would stop after one sweep at this physics step.
 
@@ -300,7 +300,7 @@ def single_sweep(zone, fresh, q1, q2):
     return x < (zone.single_fresh if fresh else zone.single_continuing)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def in_reach(zone, q1):
     """Whether the elbow, at shoulder angle q1, is within reach of the block (q₁ within the window)."""
     d = q1 - zone.block_angle
@@ -308,7 +308,7 @@ def in_reach(zone, q1):
     return abs(d) <= zone.window
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def near_block(zone, l1, q1, q2):
     """Whether the forearm's box may be in contact range of the block (a conservative test).
 

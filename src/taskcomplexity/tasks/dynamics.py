@@ -92,7 +92,7 @@ class ArmDynamics:
         return out
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _mass_matrix(p, q2, out):
     m1, c1, i1 = p.mass1, p.com1, p.inertia1
     if p.dof == 1:
@@ -107,7 +107,7 @@ def _mass_matrix(p, q2, out):
     out[1, 1] = i2 + m2 * c2 * c2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _one_link_step(p, q, qd, tau, dt):
     k, vmax = p.link_damping, p.max_velocity
     m, c, inertia, b = p.mass1, p.com1, p.inertia1, p.joint_damping1
@@ -118,7 +118,7 @@ def _one_link_step(p, q, qd, tau, dt):
     return q + dt * qd, qd
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _two_link_step(p, q1, q2, u, qd2, tau1, tau2, dt):
     k, vmax = p.link_damping, p.max_velocity
     m1, c1, i1, b1, l1 = p.mass1, p.com1, p.inertia1, p.joint_damping1, p.length1
@@ -161,7 +161,7 @@ def _two_link_step(p, q1, q2, u, qd2, tau1, tau2, dt):
     return q1 + dt * u, q2 + dt * qd2, u, qd2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _two_link_step_const(p, inv, q1, q2, u, qd2, tau1, tau2, dt):
     """:func:`_two_link_step` for a forearm whose centre of mass is on the elbow (M constant).
 
@@ -196,7 +196,7 @@ def inverse_mass_matrix(params):
     return inv
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _inverse_at(params, const_inv, q2):
     """M⁻¹ at elbow angle q2 as (inv11, inv12, inv22) (``const_inv`` when M is constant)."""
     if params.com2 == 0.0:
@@ -207,7 +207,7 @@ def _inverse_at(params, const_inv, q2):
     return np.array([m[1, 1] / det, -m[0, 1] / det, m[0, 0] / det])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _free_step(params, inv, const, two_links, a1, a2, u, v, t1, t2, on, dt):
     """One contact-free physics step of every environment of the block (a loop the compiler vectorises)."""
     n = a1.shape[0]
@@ -223,7 +223,7 @@ def _free_step(params, inv, const, two_links, a1, a2, u, v, t1, t2, on, dt):
             a1[j], u[j] = _one_link_step(params, a1[j], u[j], on * t1[j], dt)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def integrate_block(params, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched):
     """One environment step of n environments in lock-step, in place on length-n arrays.
 

@@ -126,7 +126,7 @@ def task_params(task: TaskSpec) -> TaskParams:
     )
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def wrap_at(q, scale):
     """:func:`wrap_angle` of one angle: round half to even at 1/scale rad (scale 0: no rounding), mod 2π."""
     if scale > 0.0:
@@ -134,14 +134,14 @@ def wrap_at(q, scale):
     return np.remainder(q, TWO_PI)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _point_to_box(px, py, half_x, half_y):
     dx = max(abs(px) - half_x, 0.0)
     dy = max(abs(py) - half_y, 0.0)
     return np.sqrt(dx * dx + dy * dy)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def upper_arm_clearance_at(p, q1):
     """d₁ of one environment (:func:`upper_arm_clearance`) from the raw shoulder angle q1, m, clipped at 0."""
     half, hx, hy, cx, ox, oy = p.block_half, p.link_half_x, p.link_half_y, p.link_centre, p.obstacle_x, p.obstacle_y
@@ -158,7 +158,7 @@ def upper_arm_clearance_at(p, q1):
     return max(best - 2 * COLLISION_MARGIN, 0.0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def forearm_clearance_at(p, elbow_x, elbow_y, eff_x, eff_y):
     """d₂ of one environment (:func:`forearm_clearance`) over the sampled forearm points, m, clipped at 0."""
     points = int(p.segment_points)
@@ -172,7 +172,7 @@ def forearm_clearance_at(p, elbow_x, elbow_y, eff_x, eff_y):
     return max(nearest - p.reach, 0.0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def goal_at(p, radius, angle):
     """The observation's target terms of one environment, constant over its episode: (θ, gx, gy).
 
@@ -184,7 +184,7 @@ def goal_at(p, radius, angle):
     return theta, radius * np.cos(theta), radius * np.sin(theta)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def observe_goal_at(p, q1, q2, qd1, theta, gx, gy, obs):
     """:func:`observe_at` with the target's terms (θ, gx, gy) of :func:`goal_at`: fills ``obs`` and returns
     (d, elbow x, elbow y, effector x, effector y), m."""
@@ -208,7 +208,7 @@ def observe_goal_at(p, q1, q2, qd1, theta, gx, gy, obs):
     return np.sqrt(dx * dx + dy * dy), elbow_x, elbow_y, ex, ey
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def observe_at(p, q1, q2, qd1, radius, angle, obs):
     """:func:`observe` of one environment (q2 unused by a 1-link arm) at polar target (ρ, angle): fills
     ``obs`` and returns (d, elbow x, elbow y, effector x, effector y), m (the elbow is (0, 0) for a 1-link arm)."""

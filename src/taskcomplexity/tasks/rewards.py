@@ -75,25 +75,25 @@ def reward_kind(name: str) -> RewardKind:
     return KINDS[name]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def success(distance, threshold):
     """Success (and termination): d < threshold. Scalars or arrays (in numba or from Python)."""
     return distance < threshold
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def collision(upper, forearm, collision_distance):
     """c: either clearance (m) at or below the collision distance (m); scalars or arrays."""
     return (upper <= collision_distance) | (forearm <= collision_distance)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def proximity(upper, forearm, decay):
     """e^(−decay·d₁) + e^(−decay·d₂) for clearances d₁, d₂ (m) and decay (1/m); scalars or arrays."""
     return np.exp(-decay * upper) + np.exp(-decay * forearm)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def shaped_terms(distance, effort, hit_obstacle, near_obstacle, penalty, weight):
     """The signed terms of :data:`TERMS`: −d², −Σ aᵢ², −penalty·c, −weight·proximity.
 
@@ -104,7 +104,7 @@ def shaped_terms(distance, effort, hit_obstacle, near_obstacle, penalty, weight)
     return -(distance * distance), -effort, -(penalty * hit_obstacle), -(weight * near_obstacle)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def reward(kind, distance, threshold, effort, hit_obstacle, near_obstacle, penalty, weight):
     """The per-step reward r of reward kind ``kind`` (a :attr:`RewardKind.code`) for one environment.
 

@@ -27,7 +27,7 @@ from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix
 from taskcomplexity.tasks.step_kernel import KernelTask, block_goals, env_state, gather, step_block
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _rows4(w, b0, fan_in, src, r0, r1, r2, r3, n):
     """Four output rows (weights at b0, b0 + fan_in, …): four inputs per pass over the n environments."""
     b1, b2, b3 = b0 + fan_in, b0 + 2 * fan_in, b0 + 3 * fan_in
@@ -62,7 +62,7 @@ def _rows4(w, b0, fan_in, src, r0, r1, r2, r3, n):
         i += 1
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _row(w, b0, fan_in, src, r0, n):
     """One output row, four inputs per pass."""
     for e in range(n):
@@ -81,7 +81,7 @@ def _row(w, b0, fan_in, src, r0, n):
         i += 1
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _dense(w, off, fan_in, fan_out, src, dst, n):
     """dst[j, :n] = Σᵢ w[off + j·fan_in + i] · src[i, :n], summed from 0 in order i = 0, 1, … in every column.
 

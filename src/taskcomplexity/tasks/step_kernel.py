@@ -122,7 +122,7 @@ def env_state(state: dict[str, np.ndarray], action: np.ndarray) -> EnvState:
     )
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def gather(active, steps, max_steps, lo, hi, index):
     """Pack the environments ``lo … hi−1`` that are active and have taken fewer than ``max_steps`` steps
     into ``index`` (int64, length ≥ hi − lo), in order; returns their count n."""
@@ -134,7 +134,7 @@ def gather(active, steps, max_steps, lo, hi, index):
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def block_goals(p, target, lo, hi):
     """(hi − lo, 3): :func:`~taskcomplexity.tasks.mechanics.goal_at` (θ, gx, gy) of environments lo … hi−1,
     constant over their episodes (the fused rollout computes them once per episode, :func:`_step` per step)."""
@@ -162,7 +162,7 @@ def step_block(arm, inv, p, zone, index, n, state, dt, substeps, goals, lo):
     finish_step(p, zone, index, n, state, goals, lo, a1, a2, u, v, upper, touched)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def begin_step(p, index, n, state):
     """The first part of :func:`step_block`: the n environments' joint states and clipped torques as
     length-n arrays (a1, a2, u, v, t1, t2), the upper arm's clearance before the step (``upper``, m; 0
@@ -186,7 +186,7 @@ def begin_step(p, index, n, state):
     return a1, a2, u, v, t1, t2, upper, touched
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def finish_step(p, zone, index, n, state, goals, lo, a1, a2, u, v, upper, touched):
     """The last part of :func:`step_block`: store the integrated states, observe, reward, keep the books."""
     q, qd, target, action, active, returns, steps, success, handoff, contacted, obs, reward, done = state

@@ -50,7 +50,7 @@ class ClassicParams(NamedTuple):
 PI = np.pi
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _argmax(outputs):
     best = 0
     for k in range(1, outputs.shape[0]):
@@ -59,14 +59,14 @@ def _argmax(outputs):
     return best
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _box_action(output, low, high):
     """decode_actions for a one-dimensional float32 Box: float64 arithmetic, then the float32 cast."""
     return np.float32(low + (output + 1.0) * 0.5 * (high - low))
 
 
 # -- CartPole-v0/v1 (cartpole.py): state float64 [x, x_dot, theta, theta_dot]; params.sutton_barto_reward
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _cartpole_move(s, outputs):
     """CartPole's forces and one Euler step, in place; the new (x, θ)."""
     gravity = 9.8
@@ -93,7 +93,7 @@ def _cartpole_move(s, outputs):
     return x, theta
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _cartpole_outcome(x, theta, params):
     """(reward, terminated) of a step that reached cart position x and pole angle theta."""
     theta_threshold = 12 * 2 * math.pi / 360
@@ -103,7 +103,7 @@ def _cartpole_outcome(x, theta, params):
     return 1.0, terminated
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _cartpole_step(s, outputs, params):
     x, theta = _cartpole_move(s, outputs)
     return _cartpole_outcome(x, theta, params)
@@ -111,7 +111,7 @@ def _cartpole_step(s, outputs, params):
 
 # -- taskcomplexity/NoisyCartPole-v0 (noisy_cartpole.py): CartPole's step, then θ̇ += U(−u, u) drawn from
 #    the episode's generator (u = params.dynamics_noise; no draw when u = 0), then the termination check
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _noisy_cartpole_step(s, outputs, params, generator):
     x, theta = _cartpole_move(s, outputs)
     if params.dynamics_noise > 0.0:
@@ -120,14 +120,14 @@ def _noisy_cartpole_step(s, outputs, params, generator):
     return _cartpole_outcome(x, theta, params)  # x and θ as the Euler step left them: the kick moves θ̇ only
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _cartpole_observe(s, obs):
     for k in range(4):
         obs[k] = np.float32(s[k])
 
 
 # -- Pendulum-v1 (pendulum.py): state float64 [th, thdot]; params.gravity_gain = 3 g / (2 l)
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _pendulum_step(s, outputs, params):
     th, thdot = s[0], s[1]
     u = _box_action(outputs[0], -2.0, 2.0)  # a float32 action; np.clip to ±2 is then a no-op
@@ -142,7 +142,7 @@ def _pendulum_step(s, outputs, params):
     return -costs, False
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _pendulum_observe(s, obs):
     obs[0] = np.float32(math.cos(s[0]))
     obs[1] = np.float32(math.sin(s[0]))
@@ -150,7 +150,7 @@ def _pendulum_observe(s, obs):
 
 
 # -- MountainCar-v0 (mountain_car.py): state float64 [position, velocity]; params.goal_velocity
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _mountain_car_step(s, outputs, params):
     position, velocity = s[0], s[1]
     velocity = velocity + ((_argmax(outputs) - 1) * 0.001 + math.cos(3 * position) * (-0.0025))
@@ -163,7 +163,7 @@ def _mountain_car_step(s, outputs, params):
     return -1.0, position >= 0.5 and velocity >= params.goal_velocity
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _mountain_car_observe(s, obs):
     obs[0] = np.float32(s[0])
     obs[1] = np.float32(s[1])
@@ -173,7 +173,7 @@ def _mountain_car_observe(s, obs):
 #    params.goal_velocity. The env's state is float64 from reset and float32 after its first step;
 #    NumPy 2 then computes in float32 wherever a float32 meets a Python float (NEP 50), comparisons
 #    included, and so does this kernel.
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _mountain_car_continuous_step(s, outputs, params):
     force = _box_action(outputs[0], -1.0, 1.0)  # within [−1, 1]: min/max return the float32 itself
     if s[2] == 0.0:  # float64 state
@@ -205,7 +205,7 @@ def _mountain_car_continuous_step(s, outputs, params):
 
 
 # -- Acrobot-v1 (acrobot.py, book dynamics, RK4 over dt = 0.2 in float64): state [θ1, θ2, θ̇1, θ̇2]
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _acrobot_dsdt(theta1, theta2, dtheta1, dtheta2, a):
     m1 = 1.0
     m2 = 1.0
@@ -231,7 +231,7 @@ def _acrobot_dsdt(theta1, theta2, dtheta1, dtheta2, a):
     return dtheta1, dtheta2, ddtheta1, ddtheta2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _wrap(x, m, big):
     diff = big - m
     while x > big:
@@ -241,7 +241,7 @@ def _wrap(x, m, big):
     return x
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _acrobot_step(s, outputs, params):
     action = _argmax(outputs)
     torque = -1.0 if action == 0 else (0.0 if action == 1 else 1.0)
@@ -261,7 +261,7 @@ def _acrobot_step(s, outputs, params):
     return (0.0 if terminated else -1.0), terminated
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _acrobot_observe(s, obs):
     obs[0] = np.float32(math.cos(s[0]))
     obs[1] = np.float32(math.sin(s[0]))
@@ -271,7 +271,7 @@ def _acrobot_observe(s, obs):
     obs[5] = np.float32(s[3])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _observe(code, s, obs):
     if code == CARTPOLE or code == NOISY_CARTPOLE:
         _cartpole_observe(s, obs)
@@ -311,7 +311,7 @@ def observe_all(code, state, obs):
         _observe(code, state[i], obs[i])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _count(code, state, obs, running, returns, steps, max_steps, i, reward, terminated):
     """Book environment i's step (return, length, end); whether it still runs afterwards."""
     returns[i] += reward
@@ -323,7 +323,7 @@ def _count(code, state, obs, running, returns, steps, max_steps, i, reward, term
     return 1
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _advance(code, params, state, outputs, obs, running, returns, steps, max_steps, i):
     """One step of environment i if it runs; whether it still runs afterwards."""
     if not running[i]:
@@ -332,7 +332,7 @@ def _advance(code, params, state, outputs, obs, running, returns, steps, max_ste
     return _count(code, state, obs, running, returns, steps, max_steps, i, reward, terminated)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _advance_drawing(code, params, state, generators, outputs, obs, running, returns, steps, max_steps, i):
     """:func:`_advance` for the env whose step draws (NOISY_CARTPOLE), from environment i's generator."""
     if not running[i]:

@@ -32,7 +32,7 @@ PCG_MULT_LOW = np.uint64(0x4385DF649FCCF645)
 MASK32 = np.uint64(0xFFFFFFFF)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _mul64(a, b):
     """Full 128-bit product of two uint64 as (high, low)."""
     a_lo, a_hi = a & MASK32, a >> np.uint64(32)
@@ -47,7 +47,7 @@ def _mul64(a, b):
     return high, low
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _step(s_hi, s_lo, inc_hi, inc_lo):
     """state·MULT + inc mod 2¹²⁸."""
     high, low = _mul64(s_lo, PCG_MULT_LOW)
@@ -57,7 +57,7 @@ def _step(s_hi, s_lo, inc_hi, inc_lo):
     return high + inc_hi + carry, low2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _hashmix(value, hash_const):
     value ^= hash_const
     hash_const = np.uint32(hash_const * MULT_A)
@@ -66,7 +66,7 @@ def _hashmix(value, hash_const):
     return value, hash_const
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _mix(x, y):
     result = np.uint32(np.uint32(MIX_MULT_L * x) - np.uint32(MIX_MULT_R * y))
     result ^= result >> np.uint32(16)
@@ -77,7 +77,7 @@ GENERATOR_WORDS = 4
 """A generator's state as uint64 words: the LCG state (high, low) and its increment (high, low)."""
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def seed_generator(seed, pool, words):
     """PCG64's state after ``np_random(seed)``: (state_high, state_low, inc_high, inc_low).
 
@@ -114,7 +114,7 @@ def seed_generator(seed, pool, words):
     return s_hi, s_lo, inc_hi, inc_lo
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def next_double(generator):
     """``Generator.random()``: the next U[0, 1) double of a generator, advanced in place.
 
