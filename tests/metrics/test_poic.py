@@ -153,3 +153,26 @@ def test_a_shared_log_means_changes_nothing_and_must_match_the_returns(continuou
     assert poic(continuous_returns, log_means=source) == poic(continuous_returns)  # now from its cache
     with pytest.raises(ValueError, match="log_means must be PolicyLogMeans\\(returns\\)"):
         poic(continuous_returns + 1.0, log_means=source)
+
+
+def test_policy_terms_equal_the_plain_formula_bit_for_bit():
+    # _policy_terms takes the terms of the clipped floor ln p = -700 computed once; every value must
+    # still be the plain formula's, at temperatures that put policies on the floor, inside and at 1.
+    from taskcomplexity.metrics.poic import _policy_terms
+
+    rng = np.random.default_rng(5)
+    returns = rng.normal(-30.0, 10.0, size=(40, 1)) + rng.normal(0.0, 3.0, size=(40, 25))
+    source = PolicyLogMeans(returns)
+    temperatures = np.geomspace(1e-3, 1e3, 40)
+    log_means = source.evaluate(temperatures)
+    reference = float(returns.max())
+    out = np.empty((40, 3, temperatures.size))
+    _policy_terms(log_means, source.row_max, temperatures, reference, out)
+    expected = np.empty_like(out)
+    for n in range(40):
+        for c, temperature in enumerate(temperatures):
+            log_p = min(max(log_means[n, c] + (source.row_max[n] - reference) / temperature, -700.0), 0.0)
+            p, q = math.exp(log_p), -math.expm1(log_p)
+            expected[n, :, c] = p, q, -(p * log_p + math.log(max(q, 1e-300)) * q)
+    assert (expected[:, 0] == math.exp(-700.0)).any() and (expected[:, 0] > 0.5).any()
+    np.testing.assert_array_equal(out, expected)

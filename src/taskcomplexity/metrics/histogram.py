@@ -200,7 +200,10 @@ def _histogram_terms(returns, scale, slack, edges, xlogx, occupied, pooled):
             for e in range(n_episodes):
                 c = count[index[e]]
                 if c > 0:
-                    total += c * math.log(c)
+                    # A count of 1 adds 1·ln 1 = +0.0, which leaves the sum's bits as they are: most
+                    # bins at B = 10⁵ hold one return, and the logarithm was half the kernel's time.
+                    if c > 1:
+                        total += c * math.log(c)
                     bins += 1
                     count[index[e]] = 0
             xlogx[n], occupied[n] = total, bins

@@ -142,8 +142,11 @@ class PolicyLogMeans:
         missing = list(dict.fromkeys(t for t in temperatures if t not in self._cache))
         if missing:
             values = self.evaluate(np.array(missing))
+            values.flags.writeable = False  # its columns are the cache
             for column, temperature in enumerate(missing):
                 self._cache[temperature] = values[:, column]
+            if missing == temperatures:  # all new, in order: no copy
+                return values
         if not temperatures:
             return np.empty((self.n_policies, 0))
         return np.stack([self._cache[t] for t in temperatures], axis=1)
@@ -198,6 +201,14 @@ def optimality_curves(
     return curves
 
 
+@numba.njit(cache=True, inline="always")
+def _terms(log_p):
+    """``(p, 1 - p, h(p))`` from ``ln p`` in ``[-700, 0]`` (see :func:`_policy_terms`)."""
+    p = math.exp(log_p)
+    q = -math.expm1(log_p)
+    return p, q, -(p * log_p + math.log(max(q, _TINY)) * q)
+
+
 @numba.njit(cache=True, parallel=True)
 def _policy_terms(log_means, row_max, temperatures, reference, out):
     """``out[n] = (pₙ, 1 - pₙ, h(pₙ))`` at every temperature for the reference return S*.
@@ -207,17 +218,21 @@ def _policy_terms(log_means, row_max, temperatures, reference, out):
     (1e-304) to e^-700 moves MI by less than 1e-300 nats and keeps subnormal numbers, slow in exp
     and in matrix products, out of the computation. ``1 - p = -expm1(ln p)`` keeps its precision
     near p = 1, and ``h = -p ln p - q ln q`` uses the exact ln p with ``0 ln 0 = 0`` for q = 0.
+    The floor's terms (every policy far below S* at small λ) are computed once.
     """
     n_policies, n_temperatures = log_means.shape
+    low_p, low_q, low_h = _terms(_LOG_P_FLOOR)
     for n in numba.prange(n_policies):
         shift = row_max[n] - reference
         for c in range(n_temperatures):
             log_p = min(max(log_means[n, c] + shift / temperatures[c], _LOG_P_FLOOR), 0.0)
-            p = math.exp(log_p)
-            q = -math.expm1(log_p)
+            if log_p == _LOG_P_FLOOR:
+                p, q, h = low_p, low_q, low_h
+            else:
+                p, q, h = _terms(log_p)
             out[n, 0, c] = p
             out[n, 1, c] = q
-            out[n, 2, c] = -(p * log_p + math.log(max(q, _TINY)) * q)
+            out[n, 2, c] = h
 
 
 @dataclass(frozen=True, eq=False)
