@@ -19,8 +19,8 @@ from taskcomplexity.metrics._validation import check_bins, check_int, check_seed
 from taskcomplexity.metrics.histogram import bin_edges, histogram_terms, plugin_entropy
 from taskcomplexity.metrics.knn import mutual_info_classif_1d
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
-from taskcomplexity.metrics.poic import poic
-from taskcomplexity.metrics.shuffle import permutation
+from taskcomplexity.metrics.poic import PolicyLogMeans, poic
+from taskcomplexity.metrics.shuffle import shuffled_ahead
 from taskcomplexity.metrics.temperature import DEFAULT_SEARCH, POICSearch, check_search
 
 DEFAULT_BINS_SWEEP = (10, 100, 1000, 10_000, 100_000)
@@ -82,10 +82,10 @@ def permutation_null(returns: object, *, seed: int, repeats: int = 10, bins: int
     rng = np.random.default_rng(check_seed(seed))
     key = _null_key(returns, seed, repeats, bins)
     rows = []
-    for repeat in range(repeats):
-        shuffled = permutation(rng, returns.ravel()).reshape(returns.shape)
+    # The next permutation and its sorted rows are made in the background while this one is estimated.
+    for repeat, (shuffled, log_means) in enumerate(shuffled_ahead(rng, returns, repeats, PolicyLogMeans)):
         estimate = pic(shuffled, bins=bins)
-        found = poic(shuffled, search=search, optimal_return=optimal_return)
+        found = poic(shuffled, search=search, optimal_return=optimal_return, log_means=log_means)
         rows.append(
             {
                 "repeat": repeat,
@@ -114,8 +114,7 @@ def null_pic(returns: object, *, seed: int, repeats: int = 10, bins: int = DEFAU
     if key in _NULL_PIC:
         return _NULL_PIC[key].copy()
     rng = np.random.default_rng(seed)
-    draws = np.array([pic(permutation(rng, returns.ravel()).reshape(returns.shape), bins=bins).pic
-                      for _ in range(repeats)])
+    draws = np.array([pic(shuffled, bins=bins).pic for shuffled, _ in shuffled_ahead(rng, returns, repeats)])
     _remember_null_pic(key, draws)
     return draws.copy()
 

@@ -111,7 +111,7 @@ def bin_of(value, scale, slack, edges):
     return index
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, nogil=True)
 def _bin_values(values, scale, slack, edges, out):
     for i in numba.prange(values.size):
         out[i] = bin_of(values[i], scale, slack, edges)
@@ -180,7 +180,7 @@ def histogram_terms(returns: np.ndarray, edges: np.ndarray) -> HistogramTerms:
 _ROWS_PER_TASK = 64
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, nogil=True)
 def _histogram_terms(returns, scale, slack, edges, xlogx, occupied, pooled):
     n_policies, n_episodes = returns.shape
     n_bins = edges.size - 1

@@ -104,7 +104,7 @@ def log_mean_exp(
     return out
 
 
-@numba.njit(cache=True, parallel=True, fastmath={"contract"})
+@numba.njit(cache=True, parallel=True, nogil=True, fastmath={"contract"})
 def _log_mean_exp(values, weights, indptr, temperatures, cut, log_m, max_blocks, inverse_factorials, out):
     n_rows = indptr.size - 1
     n_tasks = (n_rows + _POLICIES_PER_TASK - 1) // _POLICIES_PER_TASK

@@ -209,7 +209,7 @@ def _terms(log_p):
     return p, q, -(p * log_p + math.log(max(q, _TINY)) * q)
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, parallel=True, nogil=True)
 def _policy_terms(log_means, row_max, temperatures, reference, out):
     """``out[n] = (pₙ, 1 - pₙ, h(pₙ))`` at every temperature for the reference return S*.
 
