@@ -14,8 +14,9 @@ Per task:
    sample's PIC and POIC, the sweeps over B and over subsamples, the other estimators (Miller–Madow,
    k-NN) and the per-batch estimates (with their nulls). The shuffles here are drawn in line, so
    their time shows; the stage draws them ahead in a background thread.
-2. ``compute_diagnostics`` as a whole, "new" (this tree) and "old" (git ``--baseline``, extracted with
-   ``git archive``), each in a fresh subprocess that warms up first (numba compilation or cache
+2. ``compute_diagnostics`` and ``compute_metrics`` (whose bootstrap holds the other POIC searches) as
+   wholes, "new" (this tree) and "old" (git ``--baseline``, extracted with ``git archive``), each in a
+   fresh subprocess that warms up first (numba compilation or cache
    loading), old and new alternating; medians of ``--repeats``, ratios, and whether every table is
    identical (``array_equal``).
 3. The bootstrap (``--resamples``) split into its PIC part and its POIC part, the POIC part into the
@@ -143,7 +144,7 @@ def bootstrap_split(returns: np.ndarray, bins: int, resamples: int) -> tuple[Clo
     with clock("bootstrap POIC: ℓ fine"):
         refined = source.on_lattice(lattice, fine)
     with clock("bootstrap POIC: curves fine"):
-        optimality_curves(refined, source.row_max, temperatures[fine], weights, s_star)
+        optimality_curves(refined, source.row_max, temperatures[fine], weights, s_star, refine[:, fine])
     counts = {"distinct S*": int(np.unique(s_star).size), "fine union": int(fine.size),
               "fine per resample": float(refine.sum(axis=1).mean())}
     return clock, counts
@@ -163,22 +164,27 @@ def print_clock(title: str, clock: Clock) -> None:
 # Old against new, whole stage, fresh processes ------------------------------------------------------
 
 
-def worker(source: Path, data: Path, bins: int, out: Path) -> None:
+def worker(source: Path, data: Path, stage: str, bins: int, out: Path) -> None:
     sys.path.insert(0, str(source))
     from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, compute_diagnostics
-    from taskcomplexity.stages.metrics_stage import MetricsSettings
+    from taskcomplexity.stages.metrics_stage import MetricsSettings, compute_metrics
+
+    def run(matrix, settings):
+        if stage == "metrics":
+            return compute_metrics(matrix, settings)
+        return compute_diagnostics(matrix, settings, DiagnosticsSettings())
 
     returns = np.load(data)
-    compute_diagnostics(returns[:20, :20], MetricsSettings(bins=100), DiagnosticsSettings())  # warm up
+    run(returns[:20, :20], MetricsSettings(bins=100, resamples=5))  # warm up
     cpu, wall = time.process_time(), time.perf_counter()
-    tables = compute_diagnostics(returns, MetricsSettings(bins=bins), DiagnosticsSettings())
+    tables = run(returns, MetricsSettings(bins=bins))
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
     values = {name: {c: table[c].to_numpy(dtype=np.float64).tolist() for c in table.select_dtypes("number")}
               for name, table in tables.items()}
     out.write_text(json.dumps({"cpu": cpu, "wall": wall, "values": values}))
 
 
-def whole_stage(returns: np.ndarray, bins: int, args: argparse.Namespace, scratch: Path) -> None:
+def whole_stage(stage: str, returns: np.ndarray, bins: int, args: argparse.Namespace, scratch: Path) -> None:
     from bench_metrics import baseline_source
 
     data = scratch / "returns.npy"
@@ -192,13 +198,13 @@ def whole_stage(returns: np.ndarray, bins: int, args: argparse.Namespace, scratc
     env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
     for repeat in range(args.repeats):
         for label, source in sources.items():
-            out = scratch / f"{label}-{repeat}.json"
-            subprocess.run([sys.executable, __file__, "--worker", "--source", str(source), "--data", str(data),
+            out = scratch / f"{stage}-{label}-{repeat}.json"
+            subprocess.run([sys.executable, __file__, "--worker", stage, "--source", str(source), "--data", str(data),
                             "--bins", str(bins), "--out", str(out)], check=True, env=env)
             runs[label].append(json.loads(out.read_text()))
     cpu = {label: statistics.median(r["cpu"] for r in found) for label, found in runs.items()}
     wall = {label: statistics.median(r["wall"] for r in found) for label, found in runs.items()}
-    print(f"\n  compute_diagnostics, median of {args.repeats} fresh processes "
+    print(f"\n  compute_{stage}, median of {args.repeats} fresh processes "
           f"(load average now {os.getloadavg()[0]:.1f}):")
     for label in runs:
         print(f"    {label:<4} CPU {cpu[label]:6.2f} s   wall {wall[label]:6.2f} s")
@@ -220,7 +226,7 @@ def parse_arguments() -> argparse.Namespace:
     parser.add_argument("--repeats", type=int, default=3, help="fresh processes per version (default 3)")
     parser.add_argument("--baseline", default=BASELINE, help=f"git revision of the old library (default {BASELINE})")
     parser.add_argument("--skip-old", action="store_true", help="no old/new comparison")
-    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--worker", choices=["metrics", "diagnostics"], help=argparse.SUPPRESS)
     parser.add_argument("--source", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--data", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
@@ -230,7 +236,7 @@ def parse_arguments() -> argparse.Namespace:
 def main() -> None:
     args = parse_arguments()
     if args.worker:
-        worker(args.source, args.data, args.bins, args.out)
+        worker(args.source, args.data, args.worker, args.bins, args.out)
         return
     sys.path.insert(0, str(ROOT / "src"))
     from bench_metrics import dense_returns, load_returns, sparse_returns
@@ -250,7 +256,8 @@ def main() -> None:
             bins = args.bins or max(2, returns.size // 50)
             print(f"\n=== {task}: N = {returns.shape[0]}, M = {returns.shape[1]}, B = {bins}")
             print_clock("1. diagnostics, step by step", diagnostics_split(returns, bins))
-            whole_stage(returns, bins, args, Path(name))
+            for stage in ("diagnostics", "metrics"):
+                whole_stage(stage, returns, bins, args, Path(name))
             clock, counts = bootstrap_split(returns, bins, args.resamples)
             print_clock(f"3. bootstrap, {args.resamples} resamples", clock)
             poic_cpu = sum(v for k, v in clock.cpu.items() if k.startswith("bootstrap POIC"))
