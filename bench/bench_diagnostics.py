@@ -2,8 +2,9 @@
 
 Usage::
 
-    python bench/bench_diagnostics.py                     # synthetic dense and sparse, N = 2000, M = 500
-    python bench/bench_diagnostics.py --returns outputs/cache/rwg/<key>/returns.parquet [...]   # RWG artefacts
+    python bench/bench_diagnostics.py                     # synthetic dense and sparse, N = 1000, M = 500 (~1.5 min)
+    python bench/bench_diagnostics.py --returns outputs/cache/rwg/<key>/returns.parquet [...] --metrics-stage
+                                                          # RWG artefacts (published scale: ~6 min a task)
     python bench/bench_diagnostics.py --repeats 1 --skip-old   # the split only
 
 Per task:
@@ -14,9 +15,9 @@ Per task:
    sample's PIC and POIC, the sweeps over B and over subsamples, the other estimators (Miller–Madow,
    k-NN) and the per-batch estimates (with their nulls). The shuffles here are drawn in line, so
    their time shows; the stage draws them ahead in a background thread.
-2. ``compute_diagnostics`` and ``compute_metrics`` (whose bootstrap holds the other POIC searches) as
-   wholes, "new" (this tree) and "old" (git ``--baseline``, extracted with ``git archive``), each in a
-   fresh subprocess that warms up first (numba compilation or cache
+2. ``compute_diagnostics`` (and with ``--metrics-stage`` ``compute_metrics``, whose bootstrap holds the
+   other POIC searches) as wholes, "new" (this tree) and "old" (git ``--baseline``, extracted with
+   ``git archive``), each in a fresh subprocess that warms up first (numba compilation or cache
    loading), old and new alternating; medians of ``--repeats``, ratios, and whether every table is
    identical (``array_equal``).
 3. The bootstrap (``--resamples``) split into its PIC part and its POIC part, the POIC part into the
@@ -219,13 +220,14 @@ def whole_stage(stage: str, returns: np.ndarray, bins: int, args: argparse.Names
 def parse_arguments() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--returns", type=Path, nargs="*", default=[], help="RWG returns.parquet files")
-    parser.add_argument("--policies", type=int, default=2000, help="N of the synthetic returns (default 2000)")
+    parser.add_argument("--policies", type=int, default=1000, help="N of the synthetic returns (default 1000)")
     parser.add_argument("--episodes", type=int, default=500, help="M of the synthetic returns (default 500)")
     parser.add_argument("--bins", type=int, default=None, help="B (default N·M / 50, the paper's ratio)")
     parser.add_argument("--resamples", type=int, default=1000, help="bootstrap resamples (default 1000)")
     parser.add_argument("--repeats", type=int, default=3, help="fresh processes per version (default 3)")
     parser.add_argument("--baseline", default=BASELINE, help=f"git revision of the old library (default {BASELINE})")
     parser.add_argument("--skip-old", action="store_true", help="no old/new comparison")
+    parser.add_argument("--metrics-stage", action="store_true", help="also compare compute_metrics old/new")
     parser.add_argument("--worker", choices=["metrics", "diagnostics"], help=argparse.SUPPRESS)
     parser.add_argument("--source", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--data", type=Path, help=argparse.SUPPRESS)
@@ -256,7 +258,7 @@ def main() -> None:
             bins = args.bins or max(2, returns.size // 50)
             print(f"\n=== {task}: N = {returns.shape[0]}, M = {returns.shape[1]}, B = {bins}")
             print_clock("1. diagnostics, step by step", diagnostics_split(returns, bins))
-            for stage in ("diagnostics", "metrics"):
+            for stage in ("diagnostics", "metrics") if args.metrics_stage else ("diagnostics",):
                 whole_stage(stage, returns, bins, args, Path(name))
             clock, counts = bootstrap_split(returns, bins, args.resamples)
             print_clock(f"3. bootstrap, {args.resamples} resamples", clock)
