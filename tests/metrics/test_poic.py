@@ -153,3 +153,64 @@ def test_a_shared_log_means_changes_nothing_and_must_match_the_returns(continuou
     assert poic(continuous_returns, log_means=source) == poic(continuous_returns)  # now from its cache
     with pytest.raises(ValueError, match="log_means must be PolicyLogMeans\\(returns\\)"):
         poic(continuous_returns + 1.0, log_means=source)
+
+
+def test_policy_terms_equal_the_plain_formula_bit_for_bit():
+    # _policy_terms takes the terms of the clipped floor ln p = -700 computed once; every value must
+    # still be the plain formula's, at temperatures that put policies on the floor, inside and at 1.
+    from taskcomplexity.metrics.poic import _policy_terms
+
+    rng = np.random.default_rng(5)
+    returns = rng.normal(-30.0, 10.0, size=(40, 1)) + rng.normal(0.0, 3.0, size=(40, 25))
+    source = PolicyLogMeans(returns)
+    temperatures = np.geomspace(1e-3, 1e3, 40)
+    log_means = source.evaluate(temperatures)
+    reference = float(returns.max())
+    out = np.empty((40, 3, temperatures.size))
+    _policy_terms(log_means, source.row_max, temperatures, np.arange(temperatures.size), reference, out)
+    expected = np.empty_like(out)
+    for n in range(40):
+        for c, temperature in enumerate(temperatures):
+            log_p = min(max(log_means[n, c] + (source.row_max[n] - reference) / temperature, -700.0), 0.0)
+            p, q = math.exp(log_p), -math.expm1(log_p)
+            expected[n, :, c] = p, q, -(p * log_p + math.log(max(q, 1e-300)) * q)
+    assert (expected[:, 0] == math.exp(-700.0)).any() and (expected[:, 0] > 0.5).any()
+    np.testing.assert_array_equal(out, expected)
+    columns = np.array([3, 17, 18, 39])  # a subset of the columns: the same values at those columns
+    part = np.empty((40, 3, columns.size))
+    _policy_terms(log_means, source.row_max, temperatures, columns, reference, part)
+    np.testing.assert_array_equal(part, expected[:, :, columns])
+
+
+def test_curves_of_the_needed_temperatures_equal_the_full_curves():
+    # Populations with different S* and different needs: each group of equal S* is computed at the
+    # union of its needs, the rest is NaN. The values computed agree with computing every temperature
+    # for every group up to the BLAS's reduction order (a few ulps of sums of N terms); where one
+    # population is alone, or needs everything, they are identical.
+    from taskcomplexity.metrics.bootstrap import bootstrap_multiplicities
+    from taskcomplexity.metrics.poic import optimality_curves
+
+    rng = np.random.default_rng(3)
+    returns = rng.normal(-30.0, 10.0, size=(300, 1)) + rng.normal(0.0, 3.0, size=(300, 40))
+    source = PolicyLogMeans(returns)
+    temperatures = np.geomspace(0.1, 100.0, 60)
+    log_means = source.evaluate(temperatures)
+    weights = bootstrap_multiplicities(300, resamples=50, seed=2)
+    s_star = np.where(weights > 0, source.row_max, -np.inf).max(axis=1)
+    assert np.unique(s_star).size >= 2
+    needed = np.zeros((50, 60), dtype=bool)
+    for row, start in enumerate(rng.integers(0, 50, size=50)):
+        needed[row, start:start + 10] = True
+    full = optimality_curves(log_means, source.row_max, temperatures, weights, s_star)
+    part = optimality_curves(log_means, source.row_max, temperatures, weights, s_star, needed)
+    for name in ("mi", "h_o", "h_o_given_theta"):
+        got, reference = getattr(part, name), getattr(full, name)
+        np.testing.assert_allclose(got[needed], reference[needed], rtol=0, atol=1e-14)
+        groups = [np.flatnonzero(s_star == value) for value in np.unique(s_star)]
+        unneeded = np.zeros_like(needed)
+        for rows in groups:
+            unneeded[rows] = ~needed[rows].any(axis=0)
+        assert np.isnan(got[unneeded]).all() and not np.isnan(got[~unneeded]).any()
+    everything = optimality_curves(log_means, source.row_max, temperatures, weights, s_star,
+                                   np.ones((50, 60), dtype=bool))
+    np.testing.assert_array_equal(everything.mi, full.mi)

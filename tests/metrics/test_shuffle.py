@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from taskcomplexity.metrics.shuffle import permutation
+from taskcomplexity.metrics.shuffle import permutation, shuffled_ahead
 
 
 @pytest.mark.parametrize("size", [0, 1, 2, 3, 17, 1000, 65_537])
@@ -33,3 +33,19 @@ def test_the_input_is_not_modified():
     values = np.arange(10.0)
     permutation(np.random.default_rng(0), values)
     np.testing.assert_array_equal(values, np.arange(10.0))
+
+
+def test_shuffled_ahead_gives_the_in_line_permutations_in_order():
+    # Drawn one ahead in a background thread: the same matrices, in the same order, each with what
+    # `prepare` made of it, and the generator left where drawing them one after another leaves it.
+    returns = np.random.default_rng(1).normal(size=(30, 17))
+    in_line, ahead = np.random.default_rng(9), np.random.default_rng(9)
+    expected = [in_line.permutation(returns.ravel()).reshape(returns.shape) for _ in range(4)]
+    made = list(shuffled_ahead(ahead, returns, 4, prepare=lambda m: m.max(axis=1)))
+    assert len(made) == 4
+    for (permuted, row_max), reference in zip(made, expected, strict=True):
+        np.testing.assert_array_equal(permuted, reference)
+        np.testing.assert_array_equal(row_max, reference.max(axis=1))
+    assert ahead.bit_generator.state == in_line.bit_generator.state
+    assert [p for p, _ in shuffled_ahead(ahead, returns, 0)] == []
+    assert all(prepared is None for _, prepared in shuffled_ahead(ahead, returns, 2))

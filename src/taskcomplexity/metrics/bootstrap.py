@@ -17,7 +17,12 @@ rebuilding anything per resample:
 * For POIC the expensive per-policy log-mean-exp ℓₙ(λ) does not depend on S*; a resample with
   reference S*_b only shifts ``ln pₙ`` by ``(mₙ - S*_b)/λ``. The mutual-information curves of all
   resamples are then matrix products of the multiplicities with per-policy N × (temperatures)
-  arrays, one set per distinct S*_b (see :func:`~taskcomplexity.metrics.poic.search_poic`).
+  arrays, one set per distinct S*_b (see :func:`~taskcomplexity.metrics.poic.search_poic`). On the
+  refinement, each such group is computed only at the union of its resamples' own brackets: at
+  N = 10⁴, 1000 resamples' brackets cover about 870 fine temperatures, one resample's about 160 and
+  one group's 190–500 (two_link-dense), which takes the fine curves from about 3.3 to 2.3 CPU-s. The
+  products' shapes change with the brackets, so the BLAS may round a sum differently in its last
+  bits (there: 0.9 % of the curve values visited, by at most 5.4e-15 nats; every draw unchanged).
 """
 
 from __future__ import annotations

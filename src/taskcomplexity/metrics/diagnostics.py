@@ -18,9 +18,9 @@ import pandas as pd
 from taskcomplexity.metrics._validation import check_bins, check_int, check_seed, validate_returns
 from taskcomplexity.metrics.histogram import bin_edges, histogram_terms, plugin_entropy
 from taskcomplexity.metrics.knn import mutual_info_classif_1d
-from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
-from taskcomplexity.metrics.poic import poic
-from taskcomplexity.metrics.shuffle import permutation
+from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic, pic_of_terms
+from taskcomplexity.metrics.poic import PolicyLogMeans, poic
+from taskcomplexity.metrics.shuffle import shuffled_ahead
 from taskcomplexity.metrics.temperature import DEFAULT_SEARCH, POICSearch, check_search
 
 DEFAULT_BINS_SWEEP = (10, 100, 1000, 10_000, 100_000)
@@ -82,10 +82,10 @@ def permutation_null(returns: object, *, seed: int, repeats: int = 10, bins: int
     rng = np.random.default_rng(check_seed(seed))
     key = _null_key(returns, seed, repeats, bins)
     rows = []
-    for repeat in range(repeats):
-        shuffled = permutation(rng, returns.ravel()).reshape(returns.shape)
+    # The next permutation and its sorted rows are made in the background while this one is estimated.
+    for repeat, (shuffled, log_means) in enumerate(shuffled_ahead(rng, returns, repeats, PolicyLogMeans)):
         estimate = pic(shuffled, bins=bins)
-        found = poic(shuffled, search=search, optimal_return=optimal_return)
+        found = poic(shuffled, search=search, optimal_return=optimal_return, log_means=log_means)
         rows.append(
             {
                 "repeat": repeat,
@@ -114,8 +114,7 @@ def null_pic(returns: object, *, seed: int, repeats: int = 10, bins: int = DEFAU
     if key in _NULL_PIC:
         return _NULL_PIC[key].copy()
     rng = np.random.default_rng(seed)
-    draws = np.array([pic(permutation(rng, returns.ravel()).reshape(returns.shape), bins=bins).pic
-                      for _ in range(repeats)])
+    draws = np.array([pic(shuffled, bins=bins).pic for shuffled, _ in shuffled_ahead(rng, returns, repeats)])
     _remember_null_pic(key, draws)
     return draws.copy()
 
@@ -197,7 +196,7 @@ def pic_bins_sweep(returns: object, *, bins: Sequence[int] = DEFAULT_BINS_SWEEP)
     counts = [check_bins(b) for b in _non_empty(bins, "bins")]
     rows = []
     for b in counts:
-        plugin, corrected = pic(returns, bins=b), pic_miller_madow(returns, bins=b)
+        plugin, corrected = _plugin_and_miller_madow(returns, b)
         rows.append(
             {
                 "bins": b,
@@ -282,17 +281,24 @@ def pic_miller_madow(returns: object, *, bins: int = DEFAULT_BINS) -> PICResult:
     PICResult
         Corrected PIC, H(R) and H(R|Θ) in nats; all 0 when every return is equal.
     """
-    returns = validate_returns(returns)
-    bins = check_bins(bins)
+    return _plugin_and_miller_madow(validate_returns(returns), check_bins(bins))[1]
+
+
+def _plugin_and_miller_madow(returns: np.ndarray, bins: int) -> tuple[PICResult, PICResult]:
+    """:func:`~taskcomplexity.metrics.pic.pic` and :func:`pic_miller_madow` of validated returns from one
+    histogram (each equal to its function's result)."""
     low, high = float(returns.min()), float(returns.max())
     if low == high:
-        return PICResult(pic=0.0, h_r=0.0, h_r_given_theta=0.0, bins=bins)
+        zero = PICResult(pic=0.0, h_r=0.0, h_r_given_theta=0.0, bins=bins)
+        return zero, zero
     n_policies, n_episodes = returns.shape
     terms = histogram_terms(returns, bin_edges(low, high, bins))
+    plugin = pic_of_terms(terms, bins)
     h_r = plugin_entropy(terms.pooled) + float(np.count_nonzero(terms.pooled) - 1) / (2 * n_policies * n_episodes)
     h_n = terms.policy_entropies() + (terms.occupied - 1) / (2 * n_episodes)
     h_r_given_theta = float(h_n.mean())
-    return PICResult(pic=h_r - h_r_given_theta, h_r=h_r, h_r_given_theta=h_r_given_theta, bins=bins)
+    corrected = PICResult(pic=h_r - h_r_given_theta, h_r=h_r, h_r_given_theta=h_r_given_theta, bins=bins)
+    return plugin, corrected
 
 
 def pic_knn(

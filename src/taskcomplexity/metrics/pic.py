@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from taskcomplexity.metrics._validation import check_bins, validate_returns
-from taskcomplexity.metrics.histogram import bin_edges, histogram_terms, plugin_entropy
+from taskcomplexity.metrics.histogram import HistogramTerms, bin_edges, histogram_terms, plugin_entropy
 
 DEFAULT_BINS = 100_000
 """Number of equal-width bins of the published estimator."""
@@ -81,7 +81,12 @@ def pic(returns: object, *, bins: int = DEFAULT_BINS) -> PICResult:
     low, high = float(returns.min()), float(returns.max())
     if low == high:
         return PICResult(pic=0.0, h_r=0.0, h_r_given_theta=0.0, bins=bins)
-    terms = histogram_terms(returns, bin_edges(low, high, bins))
+    return pic_of_terms(histogram_terms(returns, bin_edges(low, high, bins)), bins)
+
+
+def pic_of_terms(terms: HistogramTerms, bins: int) -> PICResult:
+    """The plug-in PIC from the per-policy histograms (:func:`~taskcomplexity.metrics.histogram.histogram_terms`)
+    on B = ``bins`` shared bins spanning the returns (min < max)."""
     h_r = plugin_entropy(terms.pooled)
     h_r_given_theta = float(terms.policy_entropies().mean())
     return PICResult(pic=h_r - h_r_given_theta, h_r=h_r, h_r_given_theta=h_r_given_theta, bins=bins)

@@ -142,8 +142,11 @@ class PolicyLogMeans:
         missing = list(dict.fromkeys(t for t in temperatures if t not in self._cache))
         if missing:
             values = self.evaluate(np.array(missing))
+            values.flags.writeable = False  # its columns are the cache
             for column, temperature in enumerate(missing):
                 self._cache[temperature] = values[:, column]
+            if missing == temperatures:  # all new, in order: no copy
+                return values
         if not temperatures:
             return np.empty((self.n_policies, 0))
         return np.stack([self._cache[t] for t in temperatures], axis=1)
@@ -155,6 +158,7 @@ def optimality_curves(
     temperatures: np.ndarray,
     weights: np.ndarray,
     s_star: np.ndarray,
+    needed: np.ndarray | None = None,
 ) -> OptimalityCurves:
     """MI(λ), H(O) and H(O|Θ) of populations given as policy multiplicities.
 
@@ -171,53 +175,78 @@ def optimality_curves(
         size (N for a bootstrap resample, a row of ones for the sample itself).
     s_star : numpy.ndarray, shape (R,)
         Reference return S* of each population.
+    needed : numpy.ndarray, shape (R, C), bool, optional
+        The temperatures each population needs (None: all). The populations sharing an S* are
+        computed at the temperatures any of them needs, the others are NaN.
 
     Returns
     -------
     OptimalityCurves
         Arrays of shape (R, C).
+
+    Notes
+    -----
+    Each population's sums are one matrix product of its group's multiplicities with per-policy
+    terms at the group's temperatures, so they depend (in the last bits, through the BLAS's blocking)
+    on which temperatures the group computes; with ``needed`` None, or a single population, all of them.
     """
     weights = np.asarray(weights, dtype=np.float64)
     n_policies, n_temperatures = log_means.shape
     shape = (weights.shape[0], n_temperatures)
-    curves = OptimalityCurves(np.empty(shape), np.empty(shape), np.empty(shape))
-    # Per policy and temperature: p, 1 - p and h(p) side by side (_policy_terms), so that one matrix
-    # product with the multiplicities gives all three population sums.
-    per_policy = np.empty((n_policies, 3, n_temperatures))
+    curves = OptimalityCurves(np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan))
     values, group = np.unique(s_star, return_inverse=True)
     for label, reference in enumerate(values):
         rows = np.flatnonzero(group.ravel() == label)
-        _policy_terms(log_means, row_max, temperatures, float(reference), per_policy)
+        columns = np.arange(n_temperatures) if needed is None else np.flatnonzero(needed[rows].any(axis=0))
+        if columns.size == 0:
+            continue
+        # Per policy and temperature: p, 1 - p and h(p) side by side (_policy_terms), so that one matrix
+        # product with the multiplicities gives all three population sums.
+        per_policy = np.empty((n_policies, 3, columns.size))
+        _policy_terms(log_means, row_max, temperatures, columns, float(reference), per_policy)
         w = weights[rows]
         sums = (w @ per_policy.reshape(n_policies, -1)) / w.sum(axis=1, keepdims=True)
         p_bar, q_bar, h_given = np.split(sums, 3, axis=1)
         h_o = -scipy.special.xlogy(p_bar, p_bar) - scipy.special.xlogy(q_bar, q_bar)
-        curves.h_o[rows] = h_o
-        curves.h_o_given_theta[rows] = h_given
-        curves.mi[rows] = h_o - h_given
+        at = np.ix_(rows, columns)
+        curves.h_o[at] = h_o
+        curves.h_o_given_theta[at] = h_given
+        curves.mi[at] = h_o - h_given
     return curves
 
 
-@numba.njit(cache=True, parallel=True)
-def _policy_terms(log_means, row_max, temperatures, reference, out):
-    """``out[n] = (pₙ, 1 - pₙ, h(pₙ))`` at every temperature for the reference return S*.
+@numba.njit(cache=True, inline="always")
+def _terms(log_p):
+    """``(p, 1 - p, h(p))`` from ``ln p`` in ``[-700, 0]`` (see :func:`_policy_terms`)."""
+    p = math.exp(log_p)
+    q = -math.expm1(log_p)
+    return p, q, -(p * log_p + math.log(max(q, _TINY)) * q)
+
+
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _policy_terms(log_means, row_max, temperatures, columns, reference, out):
+    """``out[n, :, j] = (pₙ, 1 - pₙ, h(pₙ))`` at the temperature of column ``columns[j]`` for the reference S*.
 
     ``ln pₙ = ℓₙ + (mₙ - S*)/λ``, clipped to ``[-700, 0]``: pₙ <= 1 removes rounding excess and keeps
     policies absent from a population (weight 0, possibly mₙ > S*) finite; raising pₙ < e^-700
     (1e-304) to e^-700 moves MI by less than 1e-300 nats and keeps subnormal numbers, slow in exp
     and in matrix products, out of the computation. ``1 - p = -expm1(ln p)`` keeps its precision
     near p = 1, and ``h = -p ln p - q ln q`` uses the exact ln p with ``0 ln 0 = 0`` for q = 0.
+    The floor's terms (every policy far below S* at small λ) are computed once.
     """
-    n_policies, n_temperatures = log_means.shape
-    for n in numba.prange(n_policies):
+    low_p, low_q, low_h = _terms(_LOG_P_FLOOR)
+    for n in numba.prange(log_means.shape[0]):
         shift = row_max[n] - reference
-        for c in range(n_temperatures):
+        for j in range(columns.size):
+            c = columns[j]
             log_p = min(max(log_means[n, c] + shift / temperatures[c], _LOG_P_FLOOR), 0.0)
-            p = math.exp(log_p)
-            q = -math.expm1(log_p)
-            out[n, 0, c] = p
-            out[n, 1, c] = q
-            out[n, 2, c] = -(p * log_p + math.log(max(q, _TINY)) * q)
+            if log_p == _LOG_P_FLOOR:
+                p, q, h = low_p, low_q, low_h
+            else:
+                p, q, h = _terms(log_p)
+            out[n, 0, j] = p
+            out[n, 1, j] = q
+            out[n, 2, j] = h
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,8 +296,9 @@ def search_poic(
     )
     refine = lattice.refinement_mask(coarse_curves.mi)
     fine = np.flatnonzero(refine.any(axis=0))
+    # A population needs only its own brackets: each group of equal S* is computed at their union.
     fine_curves = optimality_curves(
-        source.on_lattice(lattice, fine), source.row_max, temperatures[fine], weights, s_star
+        source.on_lattice(lattice, fine), source.row_max, temperatures[fine], weights, s_star, refine[:, fine]
     )
 
     columns = np.concatenate((coarse, fine))

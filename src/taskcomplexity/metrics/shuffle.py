@@ -7,12 +7,24 @@ same random indices first — NumPy's PCG64 (128-bit LCG, XSL-RR output), its bu
 the masked rejection of ``random_interval`` — and then performs the same swaps in the same order, a
 loop whose cache misses the processor overlaps. The result and the generator's state afterwards are
 exactly those of ``rng.permutation(values)`` (tested); other bit generators are passed to NumPy.
+
+:func:`shuffled_ahead` gives a sequence of such permutations of a return matrix, each drawn (and
+optionally prepared) in one background thread while the caller works on the previous one: the
+draws and swaps are a serial chain, so on a multi-core machine they otherwise leave every core but
+one idle between the parallel estimators. The kernels release the GIL, and the permutations are the
+same, in the same order, as drawing them one after another.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
 import numba
 import numpy as np
+
+Prepared = TypeVar("Prepared")
 
 _MASK32 = np.uint64(0xFFFFFFFF)
 _MULT_HIGH = np.uint64(0x2360ED051FC65DA4)
@@ -89,7 +101,49 @@ def _next32(state):
     return draw & _MASK32
 
 
-@numba.njit(cache=True)
+def shuffled_ahead(
+    rng: np.random.Generator,
+    returns: np.ndarray,
+    repeats: int,
+    prepare: Callable[[np.ndarray], Prepared] | None = None,
+) -> Iterator[tuple[np.ndarray, Prepared | None]]:
+    """``repeats`` permutations of all of ``returns`` across its cells, each one ahead in a background thread.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws the permutations, one after another (only the background thread uses it meanwhile).
+    returns : numpy.ndarray, shape (N, M)
+        The matrix whose N·M values are permuted (not modified).
+    repeats : int
+        Number of permutations.
+    prepare : callable, optional
+        ``prepare(permuted)`` is also computed in the background (for example the sorted rows the
+        POIC search needs); None prepares nothing.
+
+    Yields
+    ------
+    (numpy.ndarray, object)
+        ``permutation(rng, returns.ravel()).reshape(returns.shape)`` of each repeat in order, and what
+        ``prepare`` made of it (None without ``prepare``).
+    """
+
+    def make() -> tuple[np.ndarray, Prepared | None]:
+        permuted = permutation(rng, returns.ravel()).reshape(returns.shape)
+        return permuted, (prepare(permuted) if prepare is not None else None)
+
+    if repeats < 1:
+        return
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="shuffled-ahead") as worker:
+        pending = worker.submit(make)
+        for repeat in range(repeats):
+            made = pending.result()
+            if repeat + 1 < repeats:
+                pending = worker.submit(make)
+            yield made
+
+
+@numba.njit(cache=True, nogil=True)
 def _draw_targets(state, targets):
     """``targets[i] = random_interval(i)`` for i = n - 1 … 1, in NumPy's order of draws."""
     for i in range(targets.size - 1, 0, -1):
@@ -106,7 +160,7 @@ def _draw_targets(state, targets):
         targets[i] = np.int64(value)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _swap(values, targets):
     """Fisher–Yates swaps ``values[i] <-> values[targets[i]]`` for i = n - 1 … 1, in that order."""
     for i in range(values.size - 1, 0, -1):

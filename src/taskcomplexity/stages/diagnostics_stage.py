@@ -14,8 +14,11 @@ An RWG artefact + the metrics estimator settings + :class:`DiagnosticsSettings` 
 - ``batches.parquet``: each of those metrics that is batched, on the consecutive policy batches of the
   metrics stage: the samples of the Welch tests behind "does the verdict survive a change of estimator".
 
-Cost at N = 1000, M = 100, B = 10⁵: about 3 s per task (about 20 s for the seven tasks on two cores),
-dominated by the 10 POIC searches of the null and the nearest-neighbour estimates.
+Cost at the published N = 10⁴, M = 500, B = 10⁵ (``bench/bench_diagnostics.py``): about 12 CPU-s for a
+dense task, 7 for a sparse one. The 10 POIC searches of the permutation null are over half of it (ℓ on
+the coarse grid and on the refinement, the optimality curves), then the per-batch nulls (50 permutations
+of N/5 policies) and the shuffles; each null permutation and its sorted rows are drawn one ahead in a
+background thread, so that their serial work overlaps the parallel searches.
 """
 
 from __future__ import annotations
