@@ -42,7 +42,7 @@ from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
 from taskcomplexity.stages.rwg_stage import EPISODES, RWGRequest
 
 STAGE = "learning_path"
-NUMERICS = Numerics(version=1, modules=(*EPISODES, *ESTIMATORS, "rwg.given_policies", "rl.snapshots", "rl.layers",
+NUMERICS = Numerics(version=2, modules=(*EPISODES, *ESTIMATORS, "rwg.given_policies", "rl.snapshots", "rl.layers",
                                       "metrics.learning_path", "metrics.policy_tables", "stages.metrics_stage",
                                       "stages.learning_path_stage"))
 FILES = ("learning_path.parquet", "path.parquet", "bootstrap.parquet", "batches.parquet")

@@ -44,7 +44,7 @@ ESTIMATORS = (
     "metrics.batches", "metrics.statistics", "metrics.shuffle", "metrics.diagnostics", "metrics.knn",
 )
 """The estimators of the registry's metrics on a return matrix, their bootstrap and their policy batches."""
-NUMERICS = Numerics(version=2, modules=(*ESTIMATORS, "stages.metrics_stage"))
+NUMERICS = Numerics(version=3, modules=(*ESTIMATORS, "stages.metrics_stage"))
 FILES = ("metrics.parquet", "policies.parquet", "bootstrap.parquet", "batches.parquet")
 AUTO = "auto"
 """``metrics.bins`` chosen from the return matrix's N and M (:meth:`MetricsSettings.at_scale`)."""

@@ -43,7 +43,7 @@ from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_st
 from taskcomplexity.stages.stage_log import StageLog
 
 STAGE = "primitives"
-NUMERICS = Numerics(version=1, modules=(*ESTIMATORS, "metrics.policy_tables", "stages.metrics_stage",
+NUMERICS = Numerics(version=2, modules=(*ESTIMATORS, "metrics.policy_tables", "stages.metrics_stage",
                                       "stages.primitives_stage"))
 FILES = ("primitives.parquet", "bootstrap.parquet", "batches.parquet")
 
