@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
+import numba
 import numpy as np
 
 
@@ -96,13 +97,14 @@ class DMPSpec:
         return x
 
     def rollout(self, weights: np.ndarray, start: np.ndarray, goal: np.ndarray, *, duration: float,
-                steps: int, extra_steps: int = 0) -> np.ndarray:
+                steps: int, extra_steps: int = 0, repeats: int = 1) -> np.ndarray:
         """Positions y at ``steps`` + 1 equally spaced times over [0, ``duration``] (and ``extra_steps``
         more at the same spacing after it, while the phase fades and the spring holds y at g).
 
         Parameters
         ----------
-        weights : ndarray (B, J, K)
+        weights : ndarray (B / repeats, J, K)
+            Row r drives primitives r·repeats … (r + 1)·repeats − 1 (a policy's episodes share its weights).
         start, goal : ndarray (B, J)
             y₀ and g (joint angles, radians).
         duration : float
@@ -111,31 +113,35 @@ class DMPSpec:
             Output steps over τ; each is integrated with ``substeps`` Euler sub-steps.
         extra_steps : int
             Output steps after τ.
+        repeats : int
+            Primitives per row of ``weights`` (>= 1).
 
         Returns
         -------
         ndarray (B, steps + extra_steps + 1, J): y(0) = y₀, …, y(τ), ….
+
+        The forcing's basis sum depends on the phase and the weights only, so it is evaluated once per
+        sub-step and row of ``weights`` (NumPy, as :meth:`forcing` sums it), and the Euler integration
+        of every primitive runs in one parallel numba loop with the same operations in the same order
+        as the NumPy expression it replaces: every number is the same to the bit.
         """
         self.validate()
-        weights = np.asarray(weights, dtype=np.float64)
-        y = np.array(start, dtype=np.float64)
-        goal = np.asarray(goal, dtype=np.float64)
-        amplitude = goal - y
-        z = np.zeros_like(y)
+        weights = np.ascontiguousarray(weights, dtype=np.float64)
+        start = np.ascontiguousarray(start, dtype=np.float64)
+        goal = np.ascontiguousarray(goal, dtype=np.float64)
+        if repeats < 1 or weights.shape[0] * repeats != start.shape[0]:
+            raise ValueError(f"rollout: {weights.shape[0]} weight rows × repeats={repeats} must equal the "
+                             f"{start.shape[0]} primitives of start")
         dt = duration / (steps * self.substeps)
         x = self.phases((steps + extra_steps) * self.substeps, dt, duration)
         psi = self.activations(x)  # (n, K): one row per sub-step, shared by the batch
         psi_sum = psi.sum(axis=1)
-        out = np.empty((y.shape[0], steps + extra_steps + 1, y.shape[1]))
-        out[:, 0] = y
-        for step in range(steps + extra_steps):
-            for i in range(step * self.substeps, (step + 1) * self.substeps):
-                # :meth:`forcing` with the batch's common phase: the same products and sums, in the same order
-                f = np.einsum("k,bjk->bj", psi[i], weights) / psi_sum[i] * x[i] * amplitude
-                dz = (self.alpha_z * (self.beta_z * (goal - y) - z) + f) / duration
-                dy = z / duration
-                z, y = z + dt * dz, y + dt * dy
-            out[:, step + 1] = y
+        forcing = np.empty((x.size, *weights.shape[:2]))  # (n, B / repeats, J), before × (g − y₀)
+        for i in range(x.size):
+            forcing[i] = np.einsum("k,bjk->bj", psi[i], weights) / psi_sum[i] * x[i]
+        out = np.empty((start.shape[0], steps + extra_steps + 1, start.shape[1]))
+        _integrate(forcing, start, goal, repeats, self.substeps, float(self.alpha_z), float(self.beta_z),
+                   float(duration), float(dt), out)
         return out
 
     def fit(self, trajectory: np.ndarray, *, duration: float) -> np.ndarray:
@@ -157,3 +163,44 @@ class DMPSpec:
         numerator = np.einsum("tk,tj->jk", psi, s * needed)
         denominator = np.einsum("tk,tj->jk", psi, s * s)
         return numerator / np.where(denominator > 0, denominator, 1.0)
+
+
+_BLOCK = 256
+"""Primitives per parallel job of :func:`_integrate` (one row of weights each): its state stays in L1."""
+
+
+@numba.njit(cache=True, parallel=True)
+def _integrate(forcing, start, goal, repeats, substeps, alpha_z, beta_z, duration, dt, out):
+    """Euler integration of every primitive (row b of ``start``, weights row b // repeats) into ``out``.
+
+    Per joint and sub-step i, with f = forcing[i, b // repeats, j] · (g − y₀):
+    ``dz = (α_z (β_z (g − y) − z) + f) / τ``, ``dy = z / τ``, then ``z += dt·dz``, ``y += dt·dy``.
+    Each job holds up to ``_BLOCK`` primitives of one weight row and advances them together (the
+    innermost loop runs over primitives, so it vectorises); no fused multiply-add (numba's default),
+    so each operation rounds as NumPy's does.
+    """
+    rows, joints = start.shape
+    steps = out.shape[1] - 1
+    blocks = (repeats + _BLOCK - 1) // _BLOCK
+    for job in numba.prange((rows // repeats) * blocks):
+        r = job // blocks
+        lo = r * repeats + (job % blocks) * _BLOCK
+        n = min(lo + _BLOCK, (r + 1) * repeats) - lo
+        y, z, g, a = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        for j in range(joints):
+            for k in range(n):
+                y[k] = start[lo + k, j]
+                g[k] = goal[lo + k, j]
+                a[k] = g[k] - y[k]
+                z[k] = 0.0
+                out[lo + k, 0, j] = y[k]
+            for step in range(steps):
+                for i in range(step * substeps, (step + 1) * substeps):
+                    fi = forcing[i, r, j]
+                    for k in range(n):
+                        dz = (alpha_z * (beta_z * (g[k] - y[k]) - z[k]) + fi * a[k]) / duration
+                        dy = z[k] / duration
+                        z[k] = z[k] + dt * dz
+                        y[k] = y[k] + dt * dy
+                for k in range(n):
+                    out[lo + k, step + 1, j] = y[k]

@@ -271,11 +271,10 @@ class PrimitiveBatch:
         start = self.geometry.configuration(x)
         goal = self.geometry.goal(x, start)
         joints, steps = self.geometry.joints, self.spec.movement_steps
-        weights = np.broadcast_to(self.weights[:, None], (n_pol, n_env, *self.weights.shape[1:]))
         path = self.spec.dmp.rollout(
-            weights.reshape(n_pol * n_env, joints, -1), start.reshape(-1, joints), goal.reshape(-1, joints),
+            self.weights, start.reshape(-1, joints), goal.reshape(-1, joints),
             duration=steps * self.geometry.step_seconds, steps=steps,
-            extra_steps=max(0, self.max_steps - steps),
+            extra_steps=max(0, self.max_steps - steps), repeats=n_env,
         )[:, : self.max_steps + 1]
         return PrimitiveEpisodes(path.reshape(n_pol, n_env, -1, joints), start, 0)
 
