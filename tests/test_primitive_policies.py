@@ -159,3 +159,36 @@ def test_the_family_keys_the_returns_and_leaves_the_mlp_keys_alone():
     assert "family" not in mlp.identity()["network"]  # the default family adds nothing to the MLP keys
     assert dmp.identity()["network"]["family"] == "dmp"
     assert len({mlp.key, dmp.key, RWGRequest(task, PrimitiveSpec(basis=5), PriorSpec(), settings).key}) == 3
+
+
+@pytest.mark.parametrize("arm", ["one_link_1m0", "two_link"])
+def test_a_large_batch_split_over_threads_gets_the_same_actions_bit_for_bit(arm, monkeypatch):
+    """respond splits a large batch over policies, one part per thread: every number as on one thread."""
+    from taskcomplexity.policies import primitives
+
+    task = make_task(arm, "dense")
+    policies, episodes = 7, 40
+    batch = sample_primitives(SPEC, PriorSpec(), task, 5, np.arange(policies))
+    q, target = initial_states(task, 5, np.arange(policies), episodes)
+
+    def run(threads: int, per_thread: int):
+        monkeypatch.setattr(primitives.numba, "get_num_threads", lambda: threads)
+        monkeypatch.setattr(primitives, "PARALLEL_ENVIRONMENTS", per_thread)
+        env = BatchedReaching(task, policies * episodes)
+        obs = env.reset(torch.from_numpy(q.reshape(policies * episodes, -1)), torch.from_numpy(target.reshape(-1, 2)))
+        with batch.select(slice(None)) as own:
+            state = own.begin(obs.view(policies, episodes, -1))
+            actions = []
+            for _ in range(12):
+                action, state = own.respond(obs.view(policies, episodes, -1), state)
+                actions.append(action.numpy().copy())
+                obs, _, _ = env.step(action.reshape(policies * episodes, -1))
+            split = own._workers is not None
+        return np.stack(actions), state.previous, split
+
+    alone, previous, split = run(1, 10**9)
+    assert not split
+    for threads in (2, 3):
+        together, previous_together, split = run(threads, 1)
+        assert split and np.array_equal(together, alone) and np.array_equal(previous_together, previous)
+    assert np.abs(alone).max() > 0.05  # the actions are not all zero

@@ -31,9 +31,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
 from typing import ClassVar
 
+import numba
 import numpy as np
 import torch
 
@@ -43,6 +45,8 @@ from taskcomplexity.policies.movement_primitives import DMPSpec
 from taskcomplexity.seeding import policy_generator
 
 FAMILY = "dmp"
+PARALLEL_ENVIRONMENTS = 16_384
+"""Environments per thread below which :meth:`PrimitiveBatch.respond` stays on one thread."""
 
 
 @dataclass(frozen=True)
@@ -246,6 +250,7 @@ class PrimitiveBatch:
     spec: PrimitiveSpec
     geometry: ArmGeometry
     max_steps: int
+    _workers: ThreadPoolExecutor | None = field(default=None, init=False, repr=False, compare=False)
 
     def __len__(self) -> int:
         return len(self.indices)
@@ -257,7 +262,10 @@ class PrimitiveBatch:
         self.close()
 
     def close(self) -> None:
-        """Nothing to release (the counterpart of :meth:`PolicyBatch.close`)."""
+        """End the threads :meth:`respond` splits a large batch over (the counterpart of :meth:`PolicyBatch.close`)."""
+        if self._workers is not None:
+            self._workers.shutdown()
+            self._workers = None
 
     def select(self, rows) -> PrimitiveBatch:
         """The policies at positions ``rows`` (a slice or an index array)."""
@@ -279,14 +287,33 @@ class PrimitiveBatch:
         return PrimitiveEpisodes(path.reshape(n_pol, n_env, -1, joints), start, 0)
 
     def respond(self, observations: torch.Tensor, state: PrimitiveEpisodes) -> tuple[torch.Tensor, PrimitiveEpisodes]:
-        """Actions (P, E, J) in [−1, 1] at step ``state.step`` and the state of the next step."""
+        """Actions (P, E, J) in [−1, 1] at step ``state.step`` and the state of the next step.
+
+        Every environment's action is its own elementwise arithmetic, so a large batch is split over
+        policies into one part per numba thread (NumPy releases the GIL): the same numbers, on every core.
+        """
         x = np.asarray(observations.numpy() if isinstance(observations, torch.Tensor) else observations)
-        q = self.geometry.configuration(x)
-        dt = self.geometry.step_seconds
+        n_pol, n_env = x.shape[:2]
+        q = np.empty((n_pol, n_env, self.geometry.joints))
+        actions = np.empty_like(q)
         t = min(state.step, state.trajectory.shape[2] - 2)
-        wanted = (state.trajectory[:, :, t + 1] - state.trajectory[:, :, t] + _wrap_pi(state.trajectory[:, :, t] - q))
-        velocity = _wrap_pi(q - state.previous) / dt
-        actions = self.geometry.impulse_actions(wanted / dt - velocity, self.spec.gain)
+
+        def part(rows: slice) -> None:
+            q[rows] = self.geometry.configuration(x[rows])
+            path = state.trajectory[rows]
+            wanted = path[:, :, t + 1] - path[:, :, t] + _wrap_pi(path[:, :, t] - q[rows])
+            velocity = _wrap_pi(q[rows] - state.previous[rows]) / self.geometry.step_seconds
+            actions[rows] = self.geometry.impulse_actions(wanted / self.geometry.step_seconds - velocity,
+                                                          self.spec.gain)
+
+        parts = min(numba.get_num_threads(), n_pol, max(1, n_pol * n_env // PARALLEL_ENVIRONMENTS))
+        if parts <= 1:
+            part(slice(None))
+        else:
+            if self._workers is None:
+                self._workers = ThreadPoolExecutor(numba.get_num_threads(), thread_name_prefix="dmp-respond")
+            bounds = np.linspace(0, n_pol, parts + 1).astype(int)
+            list(self._workers.map(part, [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]))
         return torch.from_numpy(actions), PrimitiveEpisodes(state.trajectory, q, state.step + 1)
 
 
