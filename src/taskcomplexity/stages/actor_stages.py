@@ -10,12 +10,10 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping
-from contextlib import nullcontext
 from pathlib import Path
 
-from taskcomplexity.progress import stage_bar
 from taskcomplexity.stages.cache import Artefact
-from taskcomplexity.stages.stage_log import StageLog
+from taskcomplexity.stages.stage_log import each_task
 
 log = logging.getLogger(__name__)
 
@@ -67,17 +65,10 @@ def over_actor_tasks(
             log.info("%-12s no SAC actor for %s (%s); left out", stage, ", ".join(ids), reason)
     if not chosen:
         return {}
-    log_ = StageLog(stage)
-    total = sum(episodes(t) for t in chosen)
-    with stage_bar(stage, total, "ep") if progress else nullcontext() as bar:
-        for task_id in chosen:
-            if bar is not None:
-                bar.set_postfix_str(task_id)
-            sac_key, actors_file = actors[task_id]
-            with log_.task(task_id) as record:
-                record.artefact, record.hit = run(task_id, sac_key, Path(actors_file),
-                                                  None if bar is None else bar.update)
-            if bar is not None and record.hit:
-                bar.update(episodes(task_id))
-    log_.summarise()
-    return dict(zip(chosen, log_.artefacts, strict=True))
+
+    def run_one(task_id: str, actor: tuple[str, Path], bar) -> tuple[Artefact, bool]:
+        sac_key, actors_file = actor
+        return run(task_id, sac_key, Path(actors_file), None if bar is None else bar.update)
+
+    return each_task(stage, {t: actors[t] for t in chosen}, run_one, work=lambda task_id, _: episodes(task_id),
+                     progress=progress)
