@@ -12,10 +12,28 @@ import logging
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+import pandas as pd
+
 from taskcomplexity.stages.cache import Artefact
+from taskcomplexity.stages.sac_stage import ACTORS_ATTR, MISSING_ATTR, SKIPPED_ATTR
 from taskcomplexity.stages.stage_log import each_task
 
 log = logging.getLogger(__name__)
+
+def trained_actors(sac_curves: pd.DataFrame | None) -> dict[str, tuple[str, str]]:
+    """Task id → (SAC key, path of its ``actors.npz``) of every task SAC's curves hold a trained actor for."""
+    return {} if sac_curves is None else dict(sac_curves.attrs.get(ACTORS_ATTR, {}))
+
+
+def unavailable_actors(sac_curves: pd.DataFrame) -> dict[str, str]:
+    """Why a task has no SAC actor (task id → reason), from the SAC stage's curves: SAC skips it (discrete
+    actions), or it has no cached curves (``sac.enabled=false``)."""
+    why = {task_id: "SAC is not trained with sac.enabled=false, and the cache holds no SAC curves for it"
+           for task_id in sac_curves.attrs.get(MISSING_ATTR) or []}
+    for task_id, reason in (sac_curves.attrs.get(SKIPPED_ATTR) or {}).items():
+        why[task_id] = f"SAC skips tasks with {reason}"
+    return why
+
 
 OLDER_THAN_SNAPSHOTS = "its SAC artefact is older than actor snapshots: force=true retrains it"
 """Why a task SAC trained has no actor: its artefact was written before SAC kept actor snapshots."""
