@@ -123,7 +123,7 @@ def test_the_verdict_gathers_each_declared_stage_from_the_files_its_record_names
 
     cache, metrics = stage
     further = [s for s, how in judged_stages().items() if how.on == POLICIES and s not in ("metrics", "diagnostics")]
-    assert further == ["occupancy", "learning_path", "primitives"]
+    assert {"occupancy", "learning_path", "primitives"} <= set(further)
     toys = [Metric(f"toy_{s}", s, s, "", True, "x", s, compute=lambda x: 0.0, batched=True) for s in further]
     artefacts = {}
     for rank, name in enumerate(further):
