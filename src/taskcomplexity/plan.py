@@ -97,7 +97,7 @@ def read_plan(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyPlan:
 
 def stage_settings(cfg: Any, study: Study) -> dict[str, Any]:
     """Every declared stage's typed settings, read from its config group (keys, types, ranges checked)."""
-    return {stage.name: stage.read(stage, cfg[stage.group], study) for stage in STAGES if stage.group is not None}
+    return {stage.name: stage.settings_from(cfg[stage.group], study) for stage in STAGES if stage.group is not None}
 
 
 def check_study_settings(study: Study, requests, settings: Mapping[str, Any], typed: list[str]) -> None:

@@ -60,7 +60,7 @@ def _check_metrics(settings: metrics_stage.MetricsSettings, study, requests, typ
                               f"{max(policies // 2, 2)}, or more policies")
 
 
-def _read_metrics(stage: Stage, node: Any, study) -> metrics_stage.MetricsSettings:
+def _read_metrics(node: Any, study) -> metrics_stage.MetricsSettings:
     return metrics_stage.MetricsSettings.from_config(node, getattr(study, "published", None))
 
 
@@ -149,7 +149,7 @@ def _primitives(work: StudyWork) -> dict:
         registry=work.registry, force=plan.force, progress=work.progress)
 
 
-def _read_primitives(stage: Stage, node: Any, study) -> primitives_stage.PrimitivesSettings:
+def _read_primitives(node: Any, study) -> primitives_stage.PrimitivesSettings:
     return primitives_stage.PrimitivesSettings.from_config(node)
 
 

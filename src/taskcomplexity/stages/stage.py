@@ -1,11 +1,12 @@
 """What a stage is: one record naming its settings, config group, inputs, files, numerics, how the verdict
 judges it, what to do when it is missing, and how it runs over a study (:class:`Stage`).
 
-The records themselves are in :mod:`taskcomplexity.stages.declared` (one entry per stage, in the order a
-study runs them); everything that lists stages reads them there: the plan (every stage's settings read and
-checked before any work), the chain (it runs each record in turn), the verdict (it judges every record with
-a :class:`Judged`), the ``rwg`` command (it refuses the other stages' groups) and the report (what to say
-when a stage is missing).
+The records of the stages before the verdict are in :mod:`taskcomplexity.stages.declared` (one entry per
+stage, in the order a study runs them); the verdict's own record (:data:`taskcomplexity.stages.verdict_stage.VERDICT`)
+reads them, and the chain (:data:`taskcomplexity.study_chain.CHAIN`) is both. Everything that lists stages reads
+the records: the plan (every stage's settings read and checked before any work), the chain (it runs each record
+in turn), the verdict (it judges every record with a :class:`Judged`, from the files that record names), the
+``rwg`` command (it refuses the other stages' groups) and the report (what to say when a stage is missing).
 
 Why the records sit here, in ``stages/``, and the layers below read no table of stages: a record holds its
 run function, so it imports the stage's module, and the modules below the stages (the metric registry,
@@ -17,7 +18,7 @@ stage the verdict judges is checked when the plan is read (:func:`~taskcomplexit
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -80,12 +81,6 @@ class StudyWork:
         return self.plan.settings[stage]
 
 
-def read_settings(stage: Stage, node: Any, study: Any = None) -> Any:
-    """The typed settings of ``stage`` from its config node (keys and types checked, then ``validate()``);
-    ``study`` is for stages whose settings depend on it (the metrics' pinned published protocol)."""
-    return build(stage.settings, node, stage.group)
-
-
 @dataclass(frozen=True)
 class Stage:
     """One stage of a study, declared once.
@@ -108,9 +103,9 @@ class Stage:
         Its config group (``conf/<group>/``); None: it has no settings of its own.
     settings : type or None
         The dataclass of its settings, read from ``group``.
-    read : callable
-        ``read(stage, node, study) -> settings``: its settings from its config node (default:
-        :func:`read_settings`).
+    read : callable or None
+        ``read(node, study) -> settings``: its settings from its config node, for settings that depend on the
+        study or need more than their dataclass (None: the dataclass built from the node, :meth:`settings_from`).
     check : callable or None
         ``check(settings, study, requests, typed)``: what its settings must satisfy given the study's tasks
         (``requests``: their RWG requests; ``typed``: the overrides typed on the command line); raises a
@@ -129,7 +124,7 @@ class Stage:
     inputs: tuple[str, ...] = ()
     group: str | None = None
     settings: type | None = None
-    read: Callable[[Stage, Any, Any], Any] = read_settings
+    read: Callable[[Any, Any], Any] | None = None
     check: Callable[[Any, Any, tuple, list[str]], None] | None = None
     judged: Judged | None = None
     missing: str = ""
@@ -140,6 +135,10 @@ class Stage:
                              f"group={self.group!r}, settings={self.settings!r}")
 
 
-def by_name(stages: tuple[Stage, ...]) -> Mapping[str, Stage]:
-    """The stages keyed by name, in their order."""
-    return {stage.name: stage for stage in stages}
+    def settings_from(self, node: Any, study: Any = None) -> Any:
+        """Its typed settings from its config node (keys and types checked, then ``validate()``); ``study`` for
+        stages whose settings depend on it (the metrics' pinned published protocol)."""
+        if self.read is not None:
+            return self.read(node, study)
+        return build(self.settings, node, self.group)
+
