@@ -4,7 +4,8 @@ the order they run: RWG → metrics → diagnostics → SAC → occupancy → le
 The verdict (:data:`taskcomplexity.stages.verdict_stage.VERDICT`) closes the chain: it judges every record
 here that says how (:class:`~taskcomplexity.stages.stage.Judged`), so it is declared in its own module, which
 reads this one. A new stage is its module (``stages/<name>_stage.py``: settings, key, artefact, a function
-over the study's tasks), its config group (``conf/<name>/default.yaml``) and one record below.
+over the study's tasks), its config group (``conf/<name>/default.yaml``, chosen in ``conf/config.yaml``'s
+defaults) and one record below (README: "Add a stage").
 
 Each record's ``run`` is a short adapter from the study's :class:`~taskcomplexity.stages.stage.StudyWork` (the
 plan and what the stages before it returned) to the stage's own function; its ``check`` holds what the
