@@ -36,18 +36,20 @@ def write_report(artefacts: StudyArtefacts, out_dir: Path, title: str, *, regist
 def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
     """Read the study's plan from the composed config ``cfg`` (every setting checked, before any work), then
     :func:`run_plan`; return the report's index.html."""
+    started = time.time()
     plan = read_plan(cfg, registry=registry)
-    return run_plan(plan, registry=registry)
+    return run_plan(plan, registry=registry, started=started)
 
 
-def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
+def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, started: float | None = None) -> Path:
     """Compute or reuse every artefact of the study and write its report; return index.html.
 
     The report goes to ``<paths.outputs>/reports/<study>[-<tag>]/``; a job of a multirun writes it into
     its own job directory instead (``<sweep dir>/<job>/report``, so the cells of a sweep do not overwrite
     one another) and records itself there for the sweep report (:mod:`taskcomplexity.report.sweep`).
+    ``started``: when the run began (the time it prints counts from there; default: now).
     """
-    started = time.time()
+    started = time.time() if started is None else started
     artefacts = study_artefacts(plan, registry=registry)
     name = artefacts.name
     job = plan.job_dir
