@@ -28,10 +28,10 @@ from pathlib import Path
 from hydra import compose, initialize_config_dir
 from omegaconf import open_dict
 
-from taskcomplexity.cli import CONF_DIR, study_plan
-from taskcomplexity.config import build
+from taskcomplexity.cli import CONF_DIR
+from taskcomplexity.plan import read_plan
 from taskcomplexity.rwg import simulate_chunk
-from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, run_diagnostics_stage
+from taskcomplexity.stages.diagnostics_stage import run_diagnostics_stage
 from taskcomplexity.stages.metrics_stage import run_metrics_stage
 from taskcomplexity.stages.rwg_stage import run_rwg_stage
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
@@ -99,9 +99,9 @@ def main() -> None:
         cfg = compose("config", overrides=overrides)
         with open_dict(cfg):
             cfg.paths.outputs = str(Path(outputs) / "outputs")
-        plan = study_plan(cfg)
-        study, entries, requests, settings, cache = plan.study, plan.entries, plan.requests, plan.settings, plan.cache
-        diagnostics_settings = build(DiagnosticsSettings, cfg.diagnostics, "diagnostics")
+        plan = read_plan(cfg)
+        study, entries, requests, cache = plan.study, plan.entries, plan.requests, plan.cache
+        settings, diagnostics_settings = plan.settings["metrics"], plan.settings["diagnostics"]
         n, m = int(cfg.rwg.policies), int(cfg.rwg.episodes)
         scale = 10_000 * 500 / (n * m)
         print(f"seven tasks at N = {n:,} × M = {m:,}, B = {settings.bins:,}, {settings.resamples} resamples, "

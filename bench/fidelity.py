@@ -28,8 +28,9 @@ import dataclasses
 import numpy as np
 from hydra import compose, initialize_config_dir
 
-from taskcomplexity.cli import CONF_DIR, study_plan
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import pic
+from taskcomplexity.plan import read_plan
 from taskcomplexity.stages.rwg_stage import load_returns, run_rwg_stage
 from taskcomplexity.stages.task_artefacts import study_metrics
 
@@ -94,8 +95,8 @@ def main() -> None:
         overrides = ["experiment=published", *overrides]
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
         cfg = compose("config", overrides=overrides)
-    plan = study_plan(cfg)
-    study, settings = plan.study, plan.settings
+    plan = read_plan(cfg)
+    study, settings = plan.study, plan.settings["metrics"]
     results = study_metrics(plan.cache, list(plan.requests), settings, names=[e.id for e in plan.entries],
                             progress=True)
     print(f"\n{study.name}: N = {int(cfg.rwg.policies):,} × M = {int(cfg.rwg.episodes):,}, B = {settings.bins:,}, "

@@ -1,6 +1,6 @@
-"""The whole chain of a study from a composed config: its artefacts (:mod:`taskcomplexity.study_chain`),
-then its report (:mod:`taskcomplexity.report`). The only module that joins the two, so that neither
-imports the other."""
+"""The whole chain of a study from a composed config: its plan, read once (:mod:`taskcomplexity.plan`), its
+artefacts (:mod:`taskcomplexity.study_chain`), then its report (:mod:`taskcomplexity.report`). The only
+module that joins the chain and the report, so that neither imports the other."""
 
 from __future__ import annotations
 
@@ -11,7 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.plan import StudyPlan, read_plan
 from taskcomplexity.report.build import build_report
+from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.study_chain import StudyArtefacts, study_artefacts
 
 log = logging.getLogger(__name__)
@@ -27,42 +29,39 @@ def write_report(artefacts: StudyArtefacts, out_dir: Path, title: str, *, regist
                     {study.label(r.task_id): r for r in results}}
     return build_report(results, study=study, verdict=artefacts.verdict, diagnostics=artefacts.diagnostics,
                         sac_curves=artefacts.sac_curves, out_dir=out_dir, title=title, ablation=ablation,
-                        alpha=artefacts.alpha, registry=registry, further=artefacts.further)
-
-
-def sweep_job_dir() -> Path | None:
-    """The Hydra job directory of this process when it is a job of a multirun (None otherwise)."""
-    from hydra.core.hydra_config import HydraConfig
-    from hydra.types import RunMode
-
-    if not HydraConfig.initialized() or HydraConfig.get().mode != RunMode.MULTIRUN:
-        return None
-    return Path(HydraConfig.get().runtime.output_dir)
+                        alpha=artefacts.alpha, registry=registry, further=artefacts.further,
+                        missing={stage.name: stage.missing for stage in STAGES if stage.missing})
 
 
 def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
+    """Read the study's plan from the composed config ``cfg`` (every setting checked, before any work), then
+    :func:`run_plan`; return the report's index.html."""
+    started = time.time()
+    plan = read_plan(cfg, registry=registry)
+    return run_plan(plan, registry=registry, started=started)
+
+
+def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, started: float | None = None) -> Path:
     """Compute or reuse every artefact of the study and write its report; return index.html.
 
     The report goes to ``<paths.outputs>/reports/<study>[-<tag>]/``; a job of a multirun writes it into
     its own job directory instead (``<sweep dir>/<job>/report``, so the cells of a sweep do not overwrite
     one another) and records itself there for the sweep report (:mod:`taskcomplexity.report.sweep`).
+    ``started``: when the run began (the time it prints counts from there; default: now).
     """
-    started = time.time()
-    artefacts = study_artefacts(cfg, registry=registry)
+    started = time.time() if started is None else started
+    artefacts = study_artefacts(plan, registry=registry)
     name = artefacts.name
-    title = cfg.report.get("title") or f"How hard is each task? ({name})"
-    job = sweep_job_dir()
-    out_dir = job / "report" if job is not None else Path(cfg.paths.outputs) / "reports" / name
-    index = write_report(artefacts, out_dir, title, registry=registry)
+    job = plan.job_dir
+    out_dir = job / "report" if job is not None else plan.outputs / "reports" / name
+    index = write_report(artefacts, out_dir, plan.title, registry=registry)
     if job is not None:
-        from hydra.core.hydra_config import HydraConfig
-
         from taskcomplexity.report.labels import task_styles
         from taskcomplexity.report.sweep import JOB_FILE
 
         labels = {t: style.name for t, style in task_styles(artefacts.study, [r.task_id for r in artefacts.results])
                   .items()}
-        record = {"study": name, "overrides": list(HydraConfig.get().overrides.task), "labels": labels,
+        record = {"study": name, "overrides": list(plan.overrides), "labels": labels,
                   "verdict": str(artefacts.verdict.path.resolve()), "report": str(index.resolve())}
         (job / JOB_FILE).write_text(json.dumps(record, indent=1), encoding="utf-8")
     elapsed = time.time() - started

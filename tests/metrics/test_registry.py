@@ -3,6 +3,8 @@ metrics artefact, the verdict and the report — and changes the cache keys, so 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -106,12 +108,24 @@ def test_the_default_registry_is_immutable_and_names_are_unique():
 
 
 def test_a_metric_declaration_is_checked():
-    with pytest.raises(ValueError, match="stage must be one of \\['metrics', 'diagnostics', 'sac', 'occupancy', 'learning_path', 'primitives'\\], got 'rwg'"):
-        Metric("m", "M", "M", "", True, "x", "rwg", compute=best_mean)
+    with pytest.raises(ValueError, match="stage must be a stage's name .* got 'Metrics stage'"):
+        Metric("m", "M", "M", "", True, "x", "Metrics stage", compute=best_mean)
     with pytest.raises(ValueError, match="Metric.name must be lower-case .* got 'Bad name'"):
         Metric("Bad name", "M", "M", "", True, "x", "metrics", compute=best_mean)
     with pytest.raises(ValueError, match="a SAC metric has seeds"):
         Metric("m", "M", "M", "", True, "x", "sac", compute=best_mean, batched=True)
+
+
+def test_a_metric_of_a_stage_the_verdict_does_not_judge_is_refused_when_the_plan_is_read():
+    from taskcomplexity.errors import ConfigError
+    from taskcomplexity.stages.declared import check_registry, judged_stages
+
+    check_registry(DEFAULT_REGISTRY)  # every default metric's stage is declared and judged
+    judged = list(judged_stages())
+    assert {"metrics", "diagnostics", "sac", "occupancy", "learning_path", "primitives"} <= set(judged)
+    for stage in ("rwg", "metrix"):  # a stage that estimates no metric; a typo
+        with pytest.raises(ConfigError, match=re.escape(f"metric m: its stage must be one of {judged}") + f".*, got '{stage}'"):
+            check_registry(DEFAULT_REGISTRY.with_metrics(Metric("m", "M", "M", "", True, "x", stage, compute=best_mean)))
 
 
 def test_every_default_metric_states_its_direction_family_stage_and_why():

@@ -18,6 +18,7 @@ import pytest
 
 import taskcomplexity
 from taskcomplexity.stages.keys import PACKAGE, Numerics
+from taskcomplexity.study_chain import CHAIN
 
 STAGES_DIR = Path(taskcomplexity.__file__).parent / "stages"
 STAGES = sorted(p.stem.removesuffix("_stage") for p in STAGES_DIR.glob("*_stage.py"))
@@ -26,14 +27,15 @@ GLUE = frozenset({
     "taskcomplexity", "tasks", "metrics", "rl", "verdict", "policies",  # packages that re-export
     "config", "errors", "progress", "policies.families", "study", "tasks.quiet", "tasks.registration", "rwg.env_checks",
     "metrics._validation", "rl.checkpoint", "stages.cache", "stages.keys", "stages.stage_log", "stages.actor_stages",
+    "stages", "stages.stage", "stages.declared", "stages.task_artefacts",  # the stages' records and their loops
 })
 """Modules in a stage's reach that compute none of its numbers: configuration and validation, logging and
-progress, the cache, checkpoint files, the gymnasium registration, the studies' data."""
+progress, the cache, checkpoint files, the gymnasium registration, the studies' data, the stages' records
+(the verdict reads which stages it judges from them)."""
 
-INPUTS = {"rwg": (), "sac": (), "metrics": ("rwg",), "diagnostics": ("rwg",), "primitives": ("rwg",),
-          "occupancy": ("sac",), "learning_path": ("sac",),
-          "verdict": ("metrics", "diagnostics", "sac", "occupancy", "learning_path", "primitives")}
-"""The stages whose keys (or, for the verdict's SAC input, whose content hash) a stage's key holds."""
+INPUTS = {stage.name: stage.inputs for stage in CHAIN}
+"""The stages whose keys (or, for the verdict's SAC input, whose content hash) a stage's key holds: each stage's
+record declares them (:attr:`taskcomplexity.stages.stage.Stage.inputs`)."""
 
 
 def _numerics(stage: str) -> Numerics:
@@ -91,11 +93,12 @@ def reach(stage: str) -> set[str]:
 
 
 def test_every_stage_module_declares_its_numerics_and_every_declared_module_exists():
-    assert set(STAGES) == set(INPUTS), "a new stage: say here which stages it reads by key"
+    assert set(STAGES) == set(INPUTS), "a stage module without a record in stages/declared.py, or a record without one"
     for stage in STAGES:
         numerics = _numerics(stage)
         assert isinstance(numerics, Numerics), stage
         assert f"stages.{stage}_stage" in numerics.modules, f"{stage}: its own module computes its artefact"
+        assert {s.name: s for s in CHAIN}[stage].numerics is numerics, f"{stage}: its record holds its module's numerics"
         for module in numerics.qualified():
             importlib.import_module(module)  # raises for a module that moved or is gone
 

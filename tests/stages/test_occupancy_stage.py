@@ -87,6 +87,7 @@ def test_bad_settings_are_one_line_naming_the_key(key, value, match):
 @pytest.fixture(scope="module")
 def with_sac(tmp_path_factory):
     """Three dense arm tasks at smoke size with SAC trained (200 steps, one seed): the whole chain and its report."""
+    from taskcomplexity.plan import read_plan
     from taskcomplexity.study_chain import study_artefacts
     from taskcomplexity.study_run import run_study
 
@@ -105,7 +106,7 @@ def with_sac(tmp_path_factory):
         cfg.study.relations = [r for r in cfg.study.relations if {r.easier, r.harder} <= dense]
         cfg.study.orders = {"dense": ["one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense"]}
     index = run_study(cfg)
-    return cfg, study_artefacts(cfg), index
+    return cfg, study_artefacts(read_plan(cfg)), index
 
 
 def test_with_sac_trained_every_task_gets_a_distance_and_the_verdict_judges_it(with_sac):
@@ -158,13 +159,14 @@ def test_the_learning_path_runs_at_every_sac_snapshot_and_enters_the_verdict(wit
 
 
 def test_the_occupancy_key_follows_its_settings_and_a_rerun_hits_the_cache(with_sac, caplog):
+    from taskcomplexity.plan import read_plan
     from taskcomplexity.study_chain import study_artefacts
 
     cfg, artefacts, _ = with_sac
-    again = study_artefacts(cfg)
+    again = study_artefacts(read_plan(cfg))
     assert {t: a.key for t, a in again.further["occupancy"].items()} == {t: a.key for t, a in artefacts.further["occupancy"].items()}
     with open_dict(cfg):
         cfg.occupancy.pairs = 50
-    changed = study_artefacts(cfg)
+    changed = study_artefacts(read_plan(cfg))
     assert not set(a.key for a in changed.further["occupancy"].values()) & set(a.key for a in artefacts.further["occupancy"].values())
     assert Path(changed.verdict.path) != Path(artefacts.verdict.path)

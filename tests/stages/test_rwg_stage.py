@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from taskcomplexity.cli import rwg_request_from_config
 from taskcomplexity.commands import metrics as metrics_command
+from taskcomplexity.compose import rwg_request_from_config
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache

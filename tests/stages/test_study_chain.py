@@ -11,9 +11,10 @@ from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import open_dict
 
-from taskcomplexity.cli import CONF_DIR, study_from
+from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.study_chain import run_verdict
+from taskcomplexity.plan import read_plan, study_from
+from taskcomplexity.study_chain import study_artefacts
 from taskcomplexity.study_run import run_study
 
 
@@ -71,7 +72,7 @@ def test_a_second_run_only_hits_the_cache(smoke, caplog):
 
 def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(smoke):
     cfg, index, _ = smoke
-    artefact = run_verdict(cfg)
+    artefact = study_artefacts(read_plan(cfg)).verdict
     verdict = pd.read_parquet(artefact.file("verdict.parquet"))
     study = study_from(cfg)
     # SAC off: no trained actor; the movement-primitive family needs none

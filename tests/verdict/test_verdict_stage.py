@@ -112,3 +112,36 @@ def test_relations_between_tasks_outside_the_results_are_left_out(stage):
     study = replace(SEVEN_TASKS, relations=(*SEVEN_TASKS.relations, Relation("two_link-dense", "two_link-sparse", "reward")))
     verdict = pd.read_parquet(run_verdict_stage(cache, study, metrics)[0].file("verdict.parquet"))
     assert "two_link-sparse" not in set(verdict["harder"])
+
+
+def test_the_verdict_gathers_each_declared_stage_from_the_files_its_record_names(stage):
+    """One toy metric per further judged stage, in an artefact holding only that stage's declared files: each
+    metric gets its values and Welch samples from them, and a stage with no record is refused."""
+    from taskcomplexity.metrics.registry import Metric
+    from taskcomplexity.stages.declared import judged_stages
+    from taskcomplexity.stages.stage import POLICIES
+
+    cache, metrics = stage
+    further = [s for s, how in judged_stages().items() if how.on == POLICIES and s not in ("metrics", "diagnostics")]
+    assert {"occupancy", "learning_path", "primitives"} <= set(further)
+    toys = [Metric(f"toy_{s}", s, s, "", True, "x", s, compute=lambda x: 0.0, batched=True) for s in further]
+    artefacts = {}
+    for rank, name in enumerate(further):
+        how = judged_stages()[name]
+
+        def write(directory, rank=rank, name=name, how=how):
+            pd.DataFrame({f"toy_{name}": [float(rank)], "policies": [20]}).to_parquet(directory / how.values)
+            pd.DataFrame({f"toy_{name}": rank + np.linspace(0, 0.1, 5)}).to_parquet(directory / how.samples)
+            return {}
+
+        artefacts[name] = {t: cache.get_or_compute(name, f"{name}{i}", write, config={})[0] for i, t in enumerate(TASKS)}
+    registry = DEFAULT_REGISTRY.with_metrics(*toys)
+    artefact, _ = run_verdict_stage(cache, SEVEN_TASKS, metrics, stages=artefacts, registry=registry)
+    values = pd.read_parquet(artefact.file("values.parquet"))
+    samples = pd.read_parquet(artefact.file("samples.parquet"))
+    for rank, name in enumerate(further):
+        got = values[values["metric"] == f"toy_{name}"]
+        assert sorted(got["task"]) == sorted(TASKS) and (got["value"] == rank).all(), name
+        assert (samples["metric"] == f"toy_{name}").sum() == 5 * len(TASKS), name
+    with pytest.raises(ValueError, match="stages must be further stages of .*'primitives'.*got \\['rwg'\\]"):
+        run_verdict_stage(cache, SEVEN_TASKS, metrics, stages={"rwg": artefacts["occupancy"]}, registry=registry)

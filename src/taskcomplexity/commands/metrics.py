@@ -15,17 +15,13 @@ import logging
 
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import (
-    cache_from_config,
-    metrics_settings_from_config,
-    one_line_errors,
-    run_name,
-    rwg_request_from_config,
-    study_requests,
-)
+from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
+from taskcomplexity.compose import rwg_request_from_config, study_requests
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
+from taskcomplexity.plan import cache_from_config, metrics_settings_from_config, run_name
+from taskcomplexity.stages.metrics_stage import STAGE
 from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
 from taskcomplexity.tasks.from_config import task_from_config
 
@@ -49,7 +45,7 @@ def run(cfg: DictConfig):
     )
     for result in results:
         log.info("%s: %s", result.task_id, result.metrics.file("metrics.parquet"))
-    names = ["task", *(m.name for m in DEFAULT_REGISTRY.of_stage("metrics"))]
+    names = ["task", *(m.name for m in DEFAULT_REGISTRY.of_stage(STAGE))]
     frame = metrics_frame(results)
     print(f"{run_name(cfg)}:\n" + frame[[c for c in names if c in frame.columns]].to_string(index=False), flush=True)
     return results

@@ -10,25 +10,23 @@ import logging
 
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import (
-    cache_from_config,
-    one_line_errors,
-    refuse_unread_groups,
-    rwg_request_from_config,
-    user_overrides,
-)
+from taskcomplexity.cli import one_line_errors, refuse_unread_groups, user_overrides
 from taskcomplexity.commands import entry_point
-from taskcomplexity.stages.rwg_stage import run_rwg_stage
+from taskcomplexity.compose import rwg_request_from_config
+from taskcomplexity.plan import cache_from_config
+from taskcomplexity.stages.declared import STAGES
+from taskcomplexity.stages.rwg_stage import STAGE, run_rwg_stage
 
 log = logging.getLogger("rwg")
+
+UNREAD = (*(stage.group for stage in STAGES if stage.group not in (None, STAGE)), "study", "report")
+"""The config nodes the RWG stage of one task does not read: every other stage's group, the study, the report."""
 
 
 @one_line_errors
 def run(cfg: DictConfig):
     """Compute or reuse the returns artefact of the composed task and sampler."""
-    refuse_unread_groups(user_overrides(), ("study", "metrics", "diagnostics", "occupancy", "learning_path",
-                                             "primitives", "sac", "report"),
-                         "the RWG stage of one task", "pipelines/study.py")
+    refuse_unread_groups(user_overrides(), UNREAD, "the RWG stage of one task", "pipelines/study.py")
     request = rwg_request_from_config(cfg)
     cache = cache_from_config(cfg)
     artefact, hit = run_rwg_stage(

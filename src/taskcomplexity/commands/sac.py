@@ -17,8 +17,10 @@ from typing import Any
 
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import cache_from_config, entry_config, one_line_errors, study_from
+from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
+from taskcomplexity.compose import entry_config
+from taskcomplexity.plan import cache_from_config, study_from
 from taskcomplexity.rl import with_budget
 from taskcomplexity.rl.train import refuse_untrainable
 from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config

@@ -18,7 +18,8 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
-from taskcomplexity.study_chain import run_verdict
+from taskcomplexity.plan import read_plan
+from taskcomplexity.study_chain import study_artefacts
 
 log = logging.getLogger("verdict")
 
@@ -26,7 +27,7 @@ log = logging.getLogger("verdict")
 @one_line_errors
 def run(cfg: DictConfig):
     """The study's verdict artefact (computed or reused); prints its per-metric summary."""
-    artefact = run_verdict(cfg)
+    artefact = study_artefacts(read_plan(cfg)).verdict
     summary = pd.read_parquet(artefact.file("summary.parquet"))
     log.info("verdict: %s", artefact.file("verdict.parquet"))
     print(summary.to_string(index=False), flush=True)

@@ -41,11 +41,8 @@ import numpy as np
 BEYOND = "beyond the paper"
 """The family of the metrics the paper's conclusion proposes (the report answers its open question with them)."""
 
-STAGES = ("metrics", "diagnostics", "sac", "occupancy", "learning_path", "primitives")
-"""Stages that estimate metrics: the first two on return matrices, ``sac`` on learning curves,
-``occupancy`` on the occupancy distances of sampled policies to SAC's trained actor,
-``learning_path`` on the return matrices of policies around SAC's actor along training,
-``primitives`` on the return matrix of the movement-primitive family (``network=dmp``)."""
+NAME = re.compile(r"[a-z][a-z0-9_]*")
+"""The form of a metric's name and of its stage's name."""
 
 
 @dataclass(frozen=True)
@@ -116,7 +113,11 @@ class Metric:
     family : str
         Display grouping, e.g. "random policies", "estimator", "SAC".
     stage : str
-        The stage that estimates it, one of :data:`STAGES`.
+        The name of the stage that estimates it: ``metrics``, ``diagnostics`` or ``primitives`` on return
+        matrices, ``sac`` on learning curves, ``occupancy`` on the occupancy distances of sampled policies to
+        SAC's trained actor, ``learning_path`` on the return matrices of policies around SAC's actor along
+        training. The stages are declared above this layer (:mod:`taskcomplexity.stages.declared`); that a
+        metric's stage is one the verdict judges is checked when a study's plan is read.
     compute : callable
         Its function (see the module docstring for the signature per stage).
     bootstrapped : bool
@@ -165,10 +166,11 @@ class Metric:
     comparable_across_tasks: bool = True
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not re.fullmatch(r"[a-z][a-z0-9_]*", self.name):
+        if not isinstance(self.name, str) or not NAME.fullmatch(self.name):
             raise ValueError(f"Metric.name must be lower-case letters, digits and '_', got {self.name!r}")
-        if self.stage not in STAGES:
-            raise ValueError(f"Metric {self.name}: stage must be one of {list(STAGES)}, got {self.stage!r}")
+        if not isinstance(self.stage, str) or not NAME.fullmatch(self.stage):
+            raise ValueError(f"Metric {self.name}: stage must be a stage's name (lower-case letters, digits and "
+                             f"'_'), got {self.stage!r}")
         if not callable(self.compute):
             raise ValueError(f"Metric {self.name}: compute must be callable, got {self.compute!r}")
         if self.stage == "sac" and (self.bootstrapped or self.batched):
@@ -215,9 +217,7 @@ class Registry:
         return tuple(m.name for m in self.metrics)
 
     def of_stage(self, stage: str) -> tuple[Metric, ...]:
-        """The metrics a stage estimates, in registry order."""
-        if stage not in STAGES:
-            raise ValueError(f"stage must be one of {list(STAGES)}, got {stage!r}")
+        """The metrics a stage estimates, in registry order (none for a stage that estimates none)."""
         return tuple(m for m in self.metrics if m.stage == stage)
 
     def label(self, name: str) -> str:

@@ -20,22 +20,20 @@ from taskcomplexity.report.methods import direction
 from taskcomplexity.report.writer import Writer
 from taskcomplexity.verdict import by_relation
 
-HOW_TO_COMPUTE = {
-    "occupancy": "it needs a trained SAC actor for each task (SAC on: `make beyond`, a fifth of the budgets in "
-                 "about an hour; `make paper`; or `sac.enabled=true`)",
-    "learning_path": "it needs the snapshots of a SAC run for each task (SAC on: `make beyond`, a fifth of the "
-                     "budgets in about an hour; `make paper`; or `sac.enabled=true`)",
-    "primitives": "it needs reaching-arm tasks and `primitives.enabled=true`",
-}
-"""Per registry stage: what a metric of that stage needs, said when the report has no value of it."""
+NOT_RUN = "its stage did not run"
+"""What the report says of a metric none of whose values was computed, when its stage's record says nothing
+(:attr:`taskcomplexity.stages.stage.Stage.missing`)."""
 
 
 def _relation(data: StudyData, row) -> str:
     return f"{row['kind'].replace('_', ' ')}: {data.name(row['easier'])} < {data.name(row['harder'])}"
 
 
-def open_question_sentences(data: StudyData) -> list[str]:
-    """Where PIC and POIC contradict the known relations, then one sentence per proposed metric."""
+def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None = None) -> list[str]:
+    """Where PIC and POIC contradict the known relations, then one sentence per proposed metric.
+
+    ``missing``: stage → what it needs, said of a metric of that stage none of whose values was computed.
+    """
     registry, verdict = data.registry, data.verdict["verdict"]
     proposed = [m for m in registry if m.family == BEYOND]
     primary = [m.name for m in registry if m.primary and (verdict["metric"] == m.name).any()]
@@ -55,7 +53,7 @@ def open_question_sentences(data: StudyData) -> list[str]:
         own = verdict[verdict["metric"] == metric.name]
         label = metric.label[:1].upper() + metric.label[1:]
         if own.empty:
-            needs = HOW_TO_COMPUTE.get(metric.stage, "its stage did not run")
+            needs = (missing or {}).get(metric.stage) or NOT_RUN
             sentences.append(f"{label} was not computed for this report: {needs}.")
             continue
         agree, contradict = int((own["outcome"] == "agree").sum()), int((own["outcome"] == "contradict").sum())
@@ -92,16 +90,17 @@ def proposed_values(data: StudyData, metrics: list[str]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataFrame] | None = None
-                   ) -> Section | None:
+def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataFrame] | None = None,
+                   missing: Mapping[str, str] | None = None) -> Section | None:
     """The answer to the paper's open question, one sentence per proposed metric (None: none is registered).
 
     ``paths``: task id → the ``path.parquet`` of its learning-path artefact (its figure; none: no figure).
+    ``missing``: stage → what it needs (:func:`open_question_sentences`).
     """
     proposed = [m for m in data.registry if m.family == BEYOND]
     if not proposed or data.verdict["verdict"].empty:
         return None
-    blocks = [Paragraph(" ".join(open_question_sentences(data)))]
+    blocks = [Paragraph(" ".join(open_question_sentences(data, missing)))]
     verdict = data.verdict["verdict"]
     computed = [m.name for m in proposed if (verdict["metric"] == m.name).any()]
     blocks += [Paragraph(f"{m.label}: {direction(m)} ({m.why}).") for m in proposed if m.name in computed]

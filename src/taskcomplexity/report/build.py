@@ -73,6 +73,7 @@ def build_report(
     alpha: float = SIGNIFICANCE_LEVEL,
     registry: Registry = DEFAULT_REGISTRY,
     further: Mapping[str, Mapping[str, Any]] | None = None,
+    missing: Mapping[str, str] | None = None,
 ) -> Path:
     """Write the study's report and return the path of its ``index.html``.
 
@@ -104,6 +105,9 @@ def build_report(
     further : mapping of stage to mapping of task id to artefact, optional
         The artefacts of the stages built on SAC's trained actor; the learning-path ones give the
         learning-path figure.
+    missing : mapping of stage to str, optional
+        What each stage beyond the paper needs, said of its metrics when none of their values was computed
+        (:attr:`taskcomplexity.stages.stage.Stage.missing`).
 
     Returns
     -------
@@ -124,7 +128,7 @@ def build_report(
         sections.diagnostics_section(writer, data),
     ]
     paths = {t: pd.read_parquet(a.file("path.parquet")) for t, a in (further or {}).get("learning_path", {}).items()}
-    beyond = beyond_section(writer, data, paths)
+    beyond = beyond_section(writer, data, paths, missing)
     if beyond is not None:
         page_sections.append(beyond)
     if ablation:

@@ -10,14 +10,30 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping
-from contextlib import nullcontext
 from pathlib import Path
 
-from taskcomplexity.progress import stage_bar
+import pandas as pd
+
 from taskcomplexity.stages.cache import Artefact
-from taskcomplexity.stages.stage_log import StageLog
+from taskcomplexity.stages.sac_stage import ACTORS_ATTR, MISSING_ATTR, SKIPPED_ATTR
+from taskcomplexity.stages.stage_log import each_task
 
 log = logging.getLogger(__name__)
+
+def trained_actors(sac_curves: pd.DataFrame | None) -> dict[str, tuple[str, str]]:
+    """Task id → (SAC key, path of its ``actors.npz``) of every task SAC's curves hold a trained actor for."""
+    return {} if sac_curves is None else dict(sac_curves.attrs.get(ACTORS_ATTR, {}))
+
+
+def unavailable_actors(sac_curves: pd.DataFrame) -> dict[str, str]:
+    """Why a task has no SAC actor (task id → reason), from the SAC stage's curves: SAC skips it (discrete
+    actions), or it has no cached curves (``sac.enabled=false``)."""
+    why = {task_id: "SAC is not trained with sac.enabled=false, and the cache holds no SAC curves for it"
+           for task_id in sac_curves.attrs.get(MISSING_ATTR) or []}
+    for task_id, reason in (sac_curves.attrs.get(SKIPPED_ATTR) or {}).items():
+        why[task_id] = f"SAC skips tasks with {reason}"
+    return why
+
 
 OLDER_THAN_SNAPSHOTS = "its SAC artefact is older than actor snapshots: force=true retrains it"
 """Why a task SAC trained has no actor: its artefact was written before SAC kept actor snapshots."""
@@ -67,17 +83,10 @@ def over_actor_tasks(
             log.info("%-12s no SAC actor for %s (%s); left out", stage, ", ".join(ids), reason)
     if not chosen:
         return {}
-    log_ = StageLog(stage)
-    total = sum(episodes(t) for t in chosen)
-    with stage_bar(stage, total, "ep") if progress else nullcontext() as bar:
-        for task_id in chosen:
-            if bar is not None:
-                bar.set_postfix_str(task_id)
-            sac_key, actors_file = actors[task_id]
-            with log_.task(task_id) as record:
-                record.artefact, record.hit = run(task_id, sac_key, Path(actors_file),
-                                                  None if bar is None else bar.update)
-            if bar is not None and record.hit:
-                bar.update(episodes(task_id))
-    log_.summarise()
-    return dict(zip(chosen, log_.artefacts, strict=True))
+
+    def run_one(task_id: str, actor: tuple[str, Path], bar) -> tuple[Artefact, bool]:
+        sac_key, actors_file = actor
+        return run(task_id, sac_key, Path(actors_file), None if bar is None else bar.update)
+
+    return each_task(stage, {t: actors[t] for t in chosen}, run_one, work=lambda task_id, _: episodes(task_id),
+                     progress=progress)

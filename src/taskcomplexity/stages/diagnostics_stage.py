@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,12 +37,11 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
-from taskcomplexity.progress import stage_bar
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings, returns_shape
 from taskcomplexity.stages.rwg_stage import load_returns
-from taskcomplexity.stages.stage_log import StageLog
+from taskcomplexity.stages.stage_log import each_task
 
 log = logging.getLogger(__name__)
 
@@ -304,19 +302,11 @@ def study_diagnostics(
 ) -> dict[str, Artefact]:
     """The diagnostics artefact of every task, keyed like ``rwg_artefacts`` (task id → RWG artefact).
 
-    With ``progress``, one bar over the tasks; each task's outcome goes to the run log (DEBUG), the
-    stage's summary line to the console (INFO).
+    With ``progress``, one bar over the tasks (:func:`~taskcomplexity.stages.stage_log.each_task`).
     """
-    stage = StageLog(STAGE)
-    with stage_bar(STAGE, len(rwg_artefacts), "task") if progress else nullcontext() as bar:
-        for task_id, rwg in rwg_artefacts.items():
-            if bar is not None:
-                bar.set_postfix_str(task_id)
-            with stage.task(task_id) as record:
-                record.artefact, record.hit = run_diagnostics_stage(
-                    cache, rwg, metrics_settings, diagnostics_settings, registry=registry, force=force
-                )
-            if bar is not None:
-                bar.update()
-    stage.summarise()
-    return {r.name: r.artefact for r in stage.records}
+
+    def run(task_id: str, rwg: Artefact, bar) -> tuple[Artefact, bool]:
+        return run_diagnostics_stage(cache, rwg, metrics_settings, diagnostics_settings, registry=registry,
+                                     force=force)
+
+    return each_task(STAGE, rwg_artefacts, run, progress=progress)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from taskcomplexity import metrics as est
-from taskcomplexity.config import result_identity, setting
+from taskcomplexity.config import build, plain, result_identity, setting
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
 from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
@@ -85,6 +85,16 @@ class MetricsSettings:
     alpha: float = setting(0.005, result=False)
     seed: int = 0
     pinned: tuple[int, int, int] | None = setting(None, result=False)
+
+    @staticmethod
+    def from_config(node, published=None) -> MetricsSettings:
+        """Build from the ``metrics`` config node (its ``scope`` is the metrics command's, not a setting); with
+        a study's ``published`` protocol, its (N, M, B) pinned, so that ``metrics.bins=auto`` is its B at its N
+        and M."""
+        settings = build(MetricsSettings, {k: v for k, v in dict(plain(node)).items() if k != "scope"}, "metrics")
+        if published is None:
+            return settings
+        return dataclasses.replace(settings, pinned=(published.policies, published.episodes, published.bins))
 
     def validate(self) -> None:
         if self.bins != AUTO and (isinstance(self.bins, bool) or not isinstance(self.bins, int) or self.bins < 2):

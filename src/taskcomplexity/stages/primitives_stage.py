@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,13 +33,12 @@ from taskcomplexity.metrics.sample import Sample
 from taskcomplexity.policies.families import network_from_config
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.policies.primitives import PrimitiveSpec
-from taskcomplexity.progress import stage_bar
 from taskcomplexity.rwg import resolve_backend
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_stage
-from taskcomplexity.stages.stage_log import StageLog
+from taskcomplexity.stages.stage_log import each_task
 
 STAGE = "primitives"
 NUMERICS = Numerics(version=2, modules=(*ESTIMATORS, "metrics.policy_tables", "stages.metrics_stage",
@@ -168,18 +166,12 @@ def study_primitives(cache: Cache, requests: Mapping[str, RWGRequest], metrics: 
     chosen = {t: r for t, r in ((t, settings.request(r)) for t, r in requests.items()) if r is not None}
     if not chosen:
         return {}
-    log_ = StageLog(STAGE)
-    total = sum(r.settings.policies * r.settings.episodes for r in chosen.values())
-    with stage_bar(STAGE, total, "ep") if progress else nullcontext() as bar:
-        for task_id, request in chosen.items():
-            if bar is not None:
-                bar.set_postfix_str(task_id)
-            before = bar.n if bar is not None else 0
-            with log_.task(task_id) as record:
-                record.artefact, record.hit = run_primitives_stage(
-                    cache, request, metrics, settings, label=task_id, registry=registry, force=force,
-                    progress=bar if bar is not None else False)
-            if bar is not None:  # a cache hit (of either artefact) advances the bar at once
-                bar.update(before + request.settings.policies * request.settings.episodes - bar.n)
-    log_.summarise()
-    return dict(zip(chosen, log_.artefacts, strict=True))
+
+    def episodes(task_id: str, request: RWGRequest) -> int:
+        return request.settings.policies * request.settings.episodes
+
+    def run(task_id: str, request: RWGRequest, bar) -> tuple[Artefact, bool]:
+        return run_primitives_stage(cache, request, metrics, settings, label=task_id, registry=registry,
+                                    force=force, progress=bar if bar is not None else False)
+
+    return each_task(STAGE, chosen, run, work=episodes, progress=progress)

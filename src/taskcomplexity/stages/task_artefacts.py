@@ -3,18 +3,18 @@
 from __future__ import annotations
 
 import logging
-from contextlib import nullcontext
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.progress import stage_bar
 from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.metrics_stage import STAGE as METRICS_STAGE
 from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage
 from taskcomplexity.stages.rwg_stage import STAGE as RWG_STAGE
 from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
-from taskcomplexity.stages.stage_log import StageLog
+from taskcomplexity.stages.stage_log import each_task
 
 log = logging.getLogger(__name__)
 
@@ -30,6 +30,33 @@ class TaskMetrics:
 
     def table(self, name: str) -> pd.DataFrame:
         return pd.read_parquet(self.metrics.file(name))
+
+
+def study_returns(cache: Cache, requests: Mapping[str, RWGRequest], *, force: bool = False,
+                  progress: bool = False) -> dict[str, Artefact]:
+    """The RWG artefact of every task (study id → request), in order; with ``progress``, one bar over the
+    episodes of the tasks whose artefact is not cached yet (a cheap existence test; the stage verifies)."""
+
+    def episodes(name: str, request: RWGRequest) -> int:
+        cached = not force and cache.path(RWG_STAGE, request.key).exists()
+        return 0 if cached else request.settings.policies * request.settings.episodes
+
+    def run(name: str, request: RWGRequest, bar) -> tuple[Artefact, bool]:
+        return run_rwg_stage(cache, request, force=force, progress=bar or False)
+
+    return each_task(RWG_STAGE, requests, run, work=episodes, progress=progress)
+
+
+def study_metrics_of(cache: Cache, returns: Mapping[str, Artefact], labels: Mapping[str, str],
+                     settings: MetricsSettings, *, registry: Registry = DEFAULT_REGISTRY, force: bool = False,
+                     progress: bool = False) -> dict[str, Artefact]:
+    """The metrics artefact of every task's RWG artefact (study id → artefact), in order; ``labels`` name
+    each task's artefact (its manifest's label)."""
+
+    def run(name: str, rwg: Artefact, bar) -> tuple[Artefact, bool]:
+        return run_metrics_stage(cache, rwg, settings, label=labels[name], registry=registry, force=force)
+
+    return each_task(METRICS_STAGE, returns, run, progress=progress)
 
 
 def study_metrics(
@@ -49,31 +76,17 @@ def study_metrics(
     level (the run log), each stage's summary at INFO. ``names`` are the entries' ids (default: their
     task ids); ``registry`` holds the metrics estimated.
     """
-    names = names or [r.task.task_id for r in requests]
-    # the bar's total: tasks without an artefact yet (a cheap existence test; run_rwg_stage verifies)
-    todo = [r for r in requests if force or not cache.path(RWG_STAGE, r.key).exists()]
-    episodes = sum(r.settings.policies * r.settings.episodes for r in todo)
-    rwg = StageLog("rwg")
-    with stage_bar("rwg", episodes, "ep") if progress else nullcontext() as bar:
-        for name, request in zip(names, requests, strict=True):
-            if bar is not None:
-                bar.set_postfix_str(name)
-            with rwg.task(name) as record:
-                record.artefact, record.hit = run_rwg_stage(cache, request, force=force, progress=bar or False)
-    rwg.summarise()
-    metrics = StageLog("metrics")
-    with stage_bar("metrics", len(requests), "task") if progress else nullcontext() as bar:
-        for name, request, returns in zip(names, requests, rwg.artefacts, strict=True):
-            if bar is not None:
-                bar.set_postfix_str(name)
-            with metrics.task(name) as record:
-                record.artefact, record.hit = run_metrics_stage(cache, returns, settings, label=request.label,
-                                                                registry=registry, force=force)
-            if bar is not None:
-                bar.update()
-    metrics.summarise()
-    return [TaskMetrics(name, request, returns, artefact) for name, request, returns, artefact
-            in zip(names, requests, rwg.artefacts, metrics.artefacts, strict=True)]
+    by_name = dict(zip(names or [r.task.task_id for r in requests], requests, strict=True))
+    returns = study_returns(cache, by_name, force=force, progress=progress)
+    metrics = study_metrics_of(cache, returns, {n: r.label for n, r in by_name.items()}, settings,
+                               registry=registry, force=force, progress=progress)
+    return task_metrics(by_name, returns, metrics)
+
+
+def task_metrics(requests: Mapping[str, RWGRequest], returns: Mapping[str, Artefact],
+                 metrics: Mapping[str, Artefact]) -> list[TaskMetrics]:
+    """Each task's request, RWG and metrics artefacts together, in the order of ``requests``."""
+    return [TaskMetrics(name, request, returns[name], metrics[name]) for name, request in requests.items()]
 
 
 def metrics_frame(results: list[TaskMetrics]) -> pd.DataFrame:

@@ -39,7 +39,12 @@ import pandas as pd
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact, Cache
+from taskcomplexity.stages.declared import STAGES, judged_stages
+from taskcomplexity.stages.diagnostics_stage import STAGE as DIAGNOSTICS
 from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.metrics_stage import STAGE as METRICS
+from taskcomplexity.stages.stage import POLICIES, SEEDS, Stage, StudyWork
+from taskcomplexity.stages.stage_log import StageLog, outcome
 from taskcomplexity.study import Study
 from taskcomplexity.verdict import (
     gather,
@@ -52,7 +57,6 @@ from taskcomplexity.verdict import (
     summarise,
     uninformative,
 )
-from taskcomplexity.verdict.gather import RETURN_MATRIX_STAGES
 from taskcomplexity.verdict.references import correlations, quantities, reference_scores
 
 log = logging.getLogger(__name__)
@@ -135,8 +139,9 @@ def run_verdict_stage(
     sac_curves : pandas.DataFrame, optional
         Tidy SAC curves of the study (``task`` = study id); None or empty leaves SAC out.
     stages : mapping of stage to mapping of task id to Artefact, optional
-        The artefacts of the further stages of :data:`~taskcomplexity.verdict.gather.RETURN_MATRIX_STAGES`
-        (``occupancy``, ``learning_path``: tasks with a trained SAC actor); a missing stage is left out.
+        The artefacts of the further stages judged on policy samples (:data:`~taskcomplexity.stages.declared.STAGES`
+        with a :class:`~taskcomplexity.stages.stage.Judged`: ``occupancy``, ``learning_path``, ``primitives``);
+        a missing stage is left out.
     alpha : float, default 0.005
         Significance cut-off.
     registry : Registry
@@ -151,20 +156,29 @@ def run_verdict_stage(
     """
     diagnostics = {t: a for t, a in (diagnostics or {}).items() if t in metrics}
     further = {stage: {t: a for t, a in found.items() if t in metrics} for stage, found in (stages or {}).items()}
-    unknown = [s for s in further if s not in RETURN_MATRIX_STAGES or s in ("metrics", "diagnostics")]
+    judged = judged_stages()
+    on_policies = [s for s, how in judged.items() if how.on == POLICIES and s not in (METRICS, DIAGNOSTICS)]
+    unknown = [s for s in further if s not in on_policies]
     if unknown:
-        raise ValueError(f"stages must be further stages of {list(RETURN_MATRIX_STAGES)[2:]}, got {sorted(unknown)}")
+        raise ValueError(f"stages must be further stages of {on_policies}, got {sorted(unknown)}")
     sac = curves_digest(sac_curves)
     key = verdict_key(study, {t: a.key for t, a in metrics.items()}, {t: a.key for t, a in diagnostics.items()},
                       sac, alpha=alpha, registry=registry,
                       stages={s: {t: a.key for t, a in found.items()} for s, found in further.items()})
 
     def write(directory):
-        tables = {}
-        for stage, artefacts in (("metrics", metrics), ("diagnostics", diagnostics), *further.items()):
-            files = RETURN_MATRIX_STAGES[stage]
-            tables[stage] = {t: {f: pd.read_parquet(a.file(f)) for f in files} for t, a in artefacts.items()}
-        values, samples, per_seed = gather(tables, registry=registry, sac_curves=sac_curves)
+        given = {METRICS: metrics, DIAGNOSTICS: diagnostics, **further}
+        tables = {stage: {t: (pd.read_parquet(a.file(how.values)), pd.read_parquet(a.file(how.samples)))
+                          for t, a in given[stage].items()}
+                  for stage, how in judged.items() if stage in given}
+        bounds = {t: values.iloc[0] for t, (values, _) in tables[METRICS].items()
+                  if {"r_min", "r_max", "r_mean"} <= set(values.columns)}
+        seeds = [stage for stage, how in judged.items() if how.on == SEEDS]
+        normalisation = {t: (float(v["r_min"].iloc[0]), float(v["r_max"].iloc[0]))  # of the SAC curves
+                         for t, (v, _) in tables[METRICS].items() if {"r_min", "r_max"} <= set(v.columns)}
+        values, samples, per_seed = gather(
+            tables, registry=registry, curves={stage: sac_curves for stage in seeds if sac_curves is not None},
+            bounds=normalisation)
         relations = study.relations_among(list(metrics))
         nulls = {}
         for task, artefact in diagnostics.items():
@@ -178,8 +192,6 @@ def run_verdict_stage(
                       nulls=centres, policies=policies)
         summary = summarise(table, values, registry=registry, orders=study.orders, uninformative=blank,
                             nulls=centres)
-        bounds = {t: f["metrics.parquet"].iloc[0] for t, f in tables["metrics"].items()
-                  if {"r_min", "r_max", "r_mean"} <= set(f["metrics.parquet"].columns)}
         references = reference_scores(study, bounds)
         correlated = correlations(quantities(values, gather_details(tables, registry=registry), registry=registry),
                                   references)
@@ -199,3 +211,24 @@ def run_verdict_stage(
               **{f"diagnostics/{t}": a.key for t, a in diagnostics.items()},
               **{f"{s}/{t}": a.key for s, found in further.items() for t, a in found.items()}}
     return cache.get_or_compute(STAGE, key, write, config=config, inputs=inputs, force=force)
+
+
+def study_verdict(work: StudyWork) -> Artefact:
+    """The verdict over the outputs of every declared stage the verdict judges (:class:`StudyWork`): the metrics
+    and diagnostics artefacts, SAC's curves, and the further stages' artefacts."""
+    plan, done = work.plan, work.done
+    judged = judged_stages()
+    further = {s: done[s] for s, how in judged.items() if how.on == POLICIES and s not in (METRICS, DIAGNOSTICS)}
+    curves = [done[s] for s, how in judged.items() if how.on == SEEDS]
+    log_ = StageLog(STAGE)
+    with log_.task(plan.study.name) as record:
+        record.artefact, record.hit = run_verdict_stage(
+            plan.cache, plan.study, done[METRICS], diagnostics=done[DIAGNOSTICS],
+            sac_curves=curves[0] if curves else None, stages=further, alpha=work.settings(METRICS).alpha,
+            registry=work.registry, force=plan.force)
+    log.info("%-12s %s: %s", STAGE, outcome(record.hit, record.seconds), record.artefact.file("verdict.parquet"))
+    return record.artefact
+
+
+VERDICT = Stage(STAGE, NUMERICS, FILES, study_verdict, inputs=tuple(s.name for s in STAGES if s.judged is not None))
+"""The verdict's record: it closes a study's chain, after every stage it judges."""

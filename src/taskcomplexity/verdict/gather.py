@@ -1,15 +1,10 @@
 """Tidy values and samples of every registered metric, from the tables of the stages that estimate them.
 
-========================  ======================================  ==================================
-stage of the metric       values                                  samples of the Welch test
-========================  ======================================  ==================================
-metrics                   ``metrics.parquet`` (whole sample)      ``batches.parquet`` (policy batches)
-diagnostics               ``estimators.parquet`` (whole sample)   its ``batches.parquet``
-occupancy                 ``occupancy.parquet`` (K policies)      its ``batches.parquet``
-learning_path             ``learning_path.parquet`` (path mean)   its ``batches.parquet``
-primitives                ``primitives.parquet`` (DMP family)     its ``batches.parquet``
-sac                       mean over seeds                         one value per seed
-========================  ======================================  ==================================
+A metric's values come from its stage's table of values on the whole sample, and the samples of its Welch
+tests from the same stage's values on consecutive policy batches (the metrics, diagnostics, occupancy,
+learning-path and primitives stages: each declares its two files, :class:`taskcomplexity.stages.stage.Judged`),
+or, for a metric judged on seeds (SAC's), from the per-seed summary of the learning curves: the mean over
+the seeds, and one value per seed. The verdict stage reads the files and hands the tables over.
 """
 
 from __future__ import annotations
@@ -22,55 +17,54 @@ from taskcomplexity.metrics.evaluate import TIDY_COLUMNS, sac_estimates, tidy_va
 from taskcomplexity.metrics.registry import Registry
 from taskcomplexity.metrics.sac import seed_summary
 
-RETURN_MATRIX_STAGES = {"metrics": ("metrics.parquet", "batches.parquet"),
-                        "diagnostics": ("estimators.parquet", "batches.parquet"),
-                        "occupancy": ("occupancy.parquet", "batches.parquet"),
-                        "learning_path": ("learning_path.parquet", "batches.parquet"),
-                        "primitives": ("primitives.parquet", "batches.parquet")}
-"""Per stage estimating on policy samples (return matrices; the occupancy distances of sampled
-policies): (file of the point values, file of the per-batch samples)."""
+Tables = Mapping[str, Mapping[str, tuple[pd.DataFrame, pd.DataFrame]]]
+"""Per stage estimating on policy samples (return matrices; the occupancy distances of sampled policies), per
+task: (the table of its metrics' values on the whole sample, one row; the table of their values on each
+policy batch). Which stages and which of their files these are is declared by each stage
+(:class:`taskcomplexity.stages.stage.Judged`); the verdict stage reads them."""
 
 
 def gather(
-    tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]],
+    tables: Tables,
     *,
     registry: Registry,
-    sac_curves: pd.DataFrame | None = None,
+    curves: Mapping[str, pd.DataFrame] | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame | None]:
-    """(values, samples, per-seed SAC summary) of every registered metric the tables hold.
+    """(values, samples, per-seed summary) of every registered metric the tables and curves hold.
 
     Parameters
     ----------
-    tables : mapping of stage to mapping of task id to mapping of file name to pandas.DataFrame
-        The artefact tables of :data:`RETURN_MATRIX_STAGES` per task, e.g.
-        ``{"metrics": {"cart": {"metrics.parquet": …, "batches.parquet": …}}, "diagnostics": {…}}``;
+    tables : mapping of stage to mapping of task id to (values, batches)
+        The tables of :data:`Tables`, e.g. ``{"metrics": {"cart": (metrics, batches)}, "diagnostics": {…}}``;
         a stage or task may be missing.
     registry : Registry
         Which columns are metrics, and of which stage.
-    sac_curves : pandas.DataFrame, optional
-        Tidy SAC curves (:mod:`taskcomplexity.metrics.sac`); normalised with each task's random-policy
-        bounds ``r_min``, ``r_max`` from ``metrics.parquet``.
+    curves : mapping of stage to pandas.DataFrame, optional
+        Tidy learning curves (:mod:`taskcomplexity.metrics.sac`) of the stages whose metrics are judged on
+        seeds (SAC's), each normalised with ``bounds``.
+    bounds : mapping of task id to (r_min, r_max), optional
+        Each task's random-policy return bounds, the normalisation of the curves.
 
     Returns
     -------
     (values, samples, per_seed)
-        Tidy ``task``, ``metric``, ``value`` tables, and the per-seed SAC summary (None without curves).
+        Tidy ``task``, ``metric``, ``value`` tables, and the per-seed summary of the curves (None without curves).
     """
     values, samples = [], []
-    for stage, (point_file, batch_file) in RETURN_MATRIX_STAGES.items():
+    for stage, found in tables.items():
         metrics = registry.of_stage(stage)
-        found = tables.get(stage, {})
-        values.append(tidy_values({t: f[point_file] for t, f in found.items()}, metrics))
-        samples.append(tidy_values({t: f[batch_file] for t, f in found.items()}, [m for m in metrics if m.batched]))
+        values.append(tidy_values({t: point for t, (point, _) in found.items()}, metrics))
+        batched = [m for m in metrics if m.batched]
+        samples.append(tidy_values({t: batches for t, (_, batches) in found.items()}, batched))
     per_seed = None
-    if sac_curves is not None and not sac_curves.empty:
-        bounds = {task: (float(f["metrics.parquet"]["r_min"].iloc[0]), float(f["metrics.parquet"]["r_max"].iloc[0]))
-                  for task, f in tables.get("metrics", {}).items()
-                  if {"r_min", "r_max"} <= set(f["metrics.parquet"].columns)}
-        per_seed = seed_summary(sac_curves, rwg_bounds=bounds)
-        sac_values, sac_samples = sac_estimates(per_seed, registry.of_stage("sac"))
-        values.append(sac_values)
-        samples.append(sac_samples)
+    for stage, frame in (curves or {}).items():
+        if frame is None or frame.empty:
+            continue
+        per_seed = seed_summary(frame, rwg_bounds=dict(bounds or {}))
+        seed_values, seed_samples = sac_estimates(per_seed, registry.of_stage(stage))
+        values.append(seed_values)
+        samples.append(seed_samples)
     return _concat(values), _concat(samples), per_seed
 
 
@@ -79,8 +73,7 @@ def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(TIDY_COLUMNS))
 
 
-def gather_details(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]], *,
-                   registry: Registry) -> pd.DataFrame:
+def gather_details(tables: Tables, *, registry: Registry) -> pd.DataFrame:
     """The shown details (e.g. H(R), H(O)) of every registered metric, per task, from the point files.
 
     Parameters
@@ -103,8 +96,7 @@ def gather_details(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]
     return pd.DataFrame(rows, columns=["task", "quantity", "metric", "value"])
 
 
-def gather_policies(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]], *,
-                    registry: Registry) -> dict[tuple[str, str], int]:
+def gather_policies(tables: Tables, *, registry: Registry) -> dict[tuple[str, str], int]:
     """N of the sample behind each (metric, task) value of the return-matrix stages (their point files'
     ``policies``): the ceiling ln N of a value, and the scale its N-to-resolve starts from.
 
@@ -125,8 +117,8 @@ def gather_policies(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]
     return found
 
 
-def _point_tables(tables: Mapping[str, Mapping[str, Mapping[str, pd.DataFrame]]]):
-    """(stage, task, point-value table) of every return-matrix stage's task in ``tables``."""
-    for stage, (point_file, _) in RETURN_MATRIX_STAGES.items():
-        for task, files in tables.get(stage, {}).items():
-            yield stage, task, files[point_file]
+def _point_tables(tables: Tables):
+    """(stage, task, point-value table) of every stage's task in ``tables``."""
+    for stage, found in tables.items():
+        for task, (point, _) in found.items():
+            yield stage, task, point

@@ -1,0 +1,223 @@
+"""The tasks of a composed config and their RWG requests: one task's (:func:`rwg_request_from_config`, for the
+single-stage commands), or every study entry's (:func:`study_requests`), each entry composed through Hydra's
+compose API: its own choices (task, arm, reward, prior, network, env id, …) over the command line's overrides
+and the study's policy family, at the N and M that apply to every entry (:func:`study_scale`).
+
+Read when the configuration is read (:mod:`taskcomplexity.plan`, :mod:`taskcomplexity.commands`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import sys
+from typing import Any
+
+from omegaconf import OmegaConf
+
+from taskcomplexity.cli import CONF_DIR, search_dirs, user_overrides
+from taskcomplexity.config import build
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.stages.rwg_stage import RWGRequest
+from taskcomplexity.study import Study, StudyTask, study_from_config
+from taskcomplexity.tasks.from_config import task_from_config
+
+log = logging.getLogger("taskcomplexity")
+
+
+TASK_GROUPS = ("task", "arm", "reward", "prior", "network")
+"""Config groups a study entry may choose for itself."""
+
+
+def _typed_groups(typed: list[str]) -> set[str]:
+    """The config groups the command line chooses (``network=…``, not ``network.hidden=…``)."""
+    return {o.partition("=")[0].lstrip("+~") for o in typed} & set(TASK_GROUPS)
+
+
+def study_family(study, typed: list[str]) -> dict[str, str]:
+    """The study's ``network``/``prior`` options that apply: those the command line does not choose."""
+    chosen = _typed_groups(typed)
+    return {g: getattr(study, g) for g in ("network", "prior") if getattr(study, g) is not None and g not in chosen}
+
+
+def _entry_overrides(entry, typed: list[str], where: str, family: dict[str, str] | None = None) -> list[str]:
+    """Compose overrides of one study entry: the user's task-level overrides, then the study's policy
+    family (``family``: group → option, for the groups neither the entry nor the command line chooses),
+    then the entry's choices.
+
+    A group the entry chooses for itself cannot also be chosen on the command line: that override
+    would be silently ignored, so it is refused.
+    """
+    chosen = {g for g in TASK_GROUPS if g in entry.selection}
+    if "env_id" in entry.selection:
+        chosen.add("task")
+    forwarded = []
+    for override in typed:
+        key = override.partition("=")[0].lstrip("+~")
+        if key in chosen:
+            raise ConfigError(f"{override} conflicts with {where} ({entry.id}), which chooses its own {key}; "
+                              f"drop the override or edit the study")
+        forwarded.append(override)
+    own = [f"{g}={entry.selection[g]}" for g in TASK_GROUPS if g in entry.selection]
+    if "env_id" in entry.selection and "task" not in entry.selection:
+        own.insert(0, "task=gym")
+    studied = [f"{g}={option}" for g, option in (family or {}).items() if g not in chosen]
+    return forwarded + studied + own
+
+
+def _compose(overrides: list[str], where: str):
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.errors import HydraException
+    from omegaconf.errors import OmegaConfBaseException
+
+    try:
+        if GlobalHydra.instance().is_initialized():
+            return compose("config", overrides=overrides)
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            return compose("config", overrides=overrides)
+    except (HydraException, OmegaConfBaseException) as err:
+        message = " ".join(str(err).split())
+        raise ConfigError(f"{where}: {message}") from err
+
+
+def entry_config(cfg: Any, entry, typed: list[str], where: str, family: dict[str, str] | None = None):
+    """The composed config of one study entry: ``typed`` overrides, the study's policy ``family``
+    (:func:`study_family`), then the entry's own choices.
+
+    What neither the entry nor the study's family chooses (backend, the reaching arms' max_steps,
+    prior and network) comes from the study's own composed config ``cfg``, so values set there, by
+    overrides or in code, reach every task.
+    """
+    from omegaconf import open_dict
+
+    family = family or {}
+    node = _compose(_entry_overrides(entry, typed, where, family), where)
+    with open_dict(node):
+        node.backend, node.max_steps = cfg.backend, cfg.max_steps
+        for group in ("prior", "network"):
+            if group not in entry.selection and group not in family:
+                node[group] = cfg[group]
+        for key in ("env_id", "kwargs", "max_steps"):
+            if key in entry.selection:
+                node.task[key] = entry.selection[key]
+    return node
+
+
+def _rwg_group_value(key: str, typed: list[str]) -> Any:
+    """``rwg.<key>`` as the chosen ``rwg`` group file gives it (before experiments and overrides), or None."""
+    from hydra.core.hydra_config import HydraConfig
+
+    choice = "default"
+    if HydraConfig.initialized():
+        choice = HydraConfig.get().runtime.choices.get("rwg", choice)
+    choice = next((o.partition("=")[2] for o in typed if o.partition("=")[0].lstrip("+~") == "rwg"), choice)
+    for directory in search_dirs(sys.argv):  # the first in Hydra's search path wins
+        path = directory / "rwg" / f"{choice}.yaml"
+        if path.is_file():
+            return OmegaConf.load(path).get(key)
+    return None
+
+
+def study_scale(cfg: Any, study, typed: list[str]) -> dict[str, int]:
+    """N and M that replace ``rwg.policies``/``rwg.episodes`` for every entry of ``study`` (logged).
+
+    A study file may give its own N, M (``study.policies``, ``study.episodes``: classic_control's
+    1000 × 1000); they apply unless ``rwg.policies``/``rwg.episodes`` is set explicitly, typed on the
+    command line or by an experiment overlay (``experiment=smoke``'s 10 × 4) — a value other than the
+    ``rwg`` group's own — which then wins, and the log says so. A typed ``study.policies`` always applies;
+    typing it beside a different ``rwg.policies`` is refused.
+    """
+    typed_keys = {o.partition("=")[0].lstrip("+~"): o for o in typed}
+    scale = {}
+    for key in ("policies", "episodes"):
+        own = getattr(study, key)
+        if own is None:
+            continue
+        given = cfg.rwg[key]
+        if f"study.{key}" in typed_keys:
+            if f"rwg.{key}" in typed_keys and given != own:
+                raise ConfigError(f"{typed_keys[f'rwg.{key}']} and {typed_keys[f'study.{key}']} disagree: give one "
+                                  f"(study.{key} sets every task of the study, rwg.{key} wins over the study file)")
+            scale[key] = own
+        elif f"rwg.{key}" in typed_keys or given != _rwg_group_value(key, typed):
+            if given != own:
+                how = "typed on the command line" if f"rwg.{key}" in typed_keys else "set by the experiment"
+                log.info("rwg.%s=%s (%s) wins over study.%s=%s of study %s, for every task", key, given, how, key,
+                         own, study.name)
+        else:
+            scale[key] = own
+    return scale
+
+
+def study_requests(cfg: Any, study: Study | None = None, settings=None) -> list[tuple[StudyTask, RWGRequest]]:
+    """(StudyTask, RWGRequest) for every entry of the study, in study order.
+
+    Each entry is composed with Hydra's compose API from the packaged configs (and the user's search
+    path): the entry's own choices (``task``, ``env_id``, ``kwargs``, ``max_steps``, ``arm``,
+    ``reward``, ``prior``, ``network``) over the command line's overrides, so an override such as
+    ``arm.links.0.mass=7`` reaches every study task. ``settings``: the RWG settings (default: read from
+    ``cfg.rwg``); N and M of every entry: :func:`~taskcomplexity.compose.study_scale`.
+    """
+    from taskcomplexity.rwg import RWGSettings, resolve_backend
+
+    study = study or study_from_config(cfg.study)
+    settings = settings if settings is not None else build(RWGSettings, cfg.rwg, "rwg")
+    typed = user_overrides()
+    overrides = study_scale(cfg, study, typed)
+    if overrides:
+        settings = dataclasses.replace(settings, **overrides)
+        settings.validate()
+    family = study_family(study, typed)
+    dirs = search_dirs(sys.argv)
+    for group, option in family.items():
+        allowed = sorted({p.stem for d in dirs for p in (d / group).glob("*.yaml")})
+        if option not in allowed:
+            raise ConfigError(f"study.{group}={option} is not a known {group} option (allowed: {', '.join(allowed)})")
+    out = []
+    for i, entry in enumerate(study.tasks):
+        node = entry_config(cfg, entry, typed, f"study.tasks[{i}]", family)
+        task = task_from_config(node)
+        network, prior = sampler_from_config(node)
+        backend = resolve_backend(task, str(node.backend), network)
+        out.append((entry, RWGRequest(task, network, prior, settings, backend)))
+    return out
+
+
+def sampler_from_config(cfg: Any):
+    """(the network's spec, of its family, and the PriorSpec) of a composed config."""
+    from taskcomplexity.policies.families import network_from_config
+    from taskcomplexity.policies.mlp import PriorSpec
+
+    return network_from_config(cfg.network), build(PriorSpec, cfg.prior, "prior")
+
+
+def rwg_request_from_config(cfg: Any, task=None) -> RWGRequest:
+    """The :class:`RWGRequest` of a composed config (for ``task`` if given); ``backend=auto`` resolved."""
+    from taskcomplexity.rwg import AUTO, BACKENDS, RWGSettings, resolve_backend
+
+    if str(cfg.backend) not in (AUTO, *BACKENDS):
+        raise ConfigError(f"backend must be one of {[AUTO, *BACKENDS]}, got {cfg.backend!r}")
+    if task is None:
+        task = task_from_config(cfg)
+        refuse_unread_overrides(task, user_overrides())
+    network, prior = sampler_from_config(cfg)
+    settings = build(RWGSettings, cfg.rwg, "rwg")
+    return RWGRequest(task, network, prior, settings, resolve_backend(task, str(cfg.backend), network))
+
+
+REACHING_ONLY = ("arm", "reward", "max_steps", "rwg.contacts")
+"""Keys only the reaching arms read."""
+
+
+def refuse_unread_overrides(task, typed: list[str]) -> None:
+    """Refuse an override that the composed task would ignore (e.g. ``arm=…`` with ``task=gym``)."""
+    from taskcomplexity.tasks.spec import TaskSpec
+
+    if isinstance(task, TaskSpec):
+        return
+    for override in typed:
+        key = override.partition("=")[0].lstrip("+~")
+        if any(key == k or key.startswith(f"{k}.") for k in REACHING_ONLY):
+            raise ConfigError(f"{override} is not read by task {task.task_id} (only the reaching arms read "
+                              f"{', '.join(REACHING_ONLY)}; use task.max_steps or task.kwargs for a gymnasium task)")
