@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper beyond classic classic-sweep test test-all lint bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep test test-all lint bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -30,6 +30,14 @@ quick: $(STAMP) ## a small trial of the whole chain (minutes; not the published 
 
 paper: $(STAMP) ## the published protocol with SAC (hours; resumes where it stopped)
 	$(PY) pipelines/study.py experiment=published sac.enabled=true
+
+# make paper's SAC runs as a Hydra multirun, one job per study task (its variants and seeds together), e.g. on a
+# cluster: make paper-jobs ARGS='hydra/launcher=cluster hydra.launcher.partition=<yours>'; then `make paper`.
+STUDY ?= seven_tasks
+EXPERIMENT ?= published
+paper-jobs: $(STAMP) ## make paper's SAC runs, one job per study task, through a Hydra launcher (ARGS='hydra/launcher=…'); `make paper` then reads them
+	$(PY) pipelines/sac.py -m experiment=$(EXPERIMENT) study=$(STUDY) \
+		sac.entry=$$($(PY) -m taskcomplexity.commands.study_tasks $(STUDY)) $(ARGS)
 
 beyond: $(STAMP) ## make run + a fifth of the SAC budgets × 2 seeds: the paper's three proposals judged (about an hour)
 	$(PY) pipelines/study.py experiment=beyond

@@ -8,6 +8,14 @@
 The budget is ``sac.total_steps`` when set; otherwise the ``sac_steps`` of the selected study's entry
 for this task (``study=seven_tasks`` by default: the reference budgets of sac.md). A task with neither fails
 with one line naming ``sac.total_steps``. An interrupted run resumes from its last checkpoint.
+
+``sac.entry=<study task id>`` trains what the study's chain trains on that task instead: the task composed
+as the study composes it, every variant of sac.md (SAC; + HER on a sparse reaching task) at its budget, into
+the keys the study looks up. A multirun over the ids is ``make paper`` spread over jobs (``make paper-jobs``,
+e.g. on a cluster through ``hydra/launcher=cluster``); ``make paper`` then reads every run from the cache::
+
+    python pipelines/sac.py -m experiment=published sac.entry=one_link_1m0-dense,two_link-sparse \
+        hydra/launcher=local_submitit
 """
 
 from __future__ import annotations
@@ -15,15 +23,17 @@ from __future__ import annotations
 import logging
 from typing import Any
 
+import pandas as pd
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import one_line_errors
+from taskcomplexity.cli import one_line_errors, user_overrides
 from taskcomplexity.commands import entry_point
-from taskcomplexity.compose import entry_config
+from taskcomplexity.compose import entry_config, study_family
+from taskcomplexity.errors import ConfigError
 from taskcomplexity.plan import cache_from_config, study_from
 from taskcomplexity.rl import with_budget
 from taskcomplexity.rl.train import refuse_untrainable
-from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config
+from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config, study_sac_curves
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -32,8 +42,10 @@ log = logging.getLogger("sac")
 
 @one_line_errors
 def run(cfg: DictConfig):
-    task = task_from_config(cfg)
     settings = sac_settings_from_config(cfg.sac)
+    if settings.entry is not None:
+        return train_study_task(cfg, settings.entry)
+    task = task_from_config(cfg)
     # refused before the cache holds anything of the run (training refuses it too, but only once its
     # scratch directory and lock exist)
     refuse_untrainable(task, settings)
@@ -46,6 +58,30 @@ def run(cfg: DictConfig):
     artefact, hit = run_sac_stage(cache, task, settings, solved_return=solved, force=bool(cfg.force), progress=True)
     log.info("%s curves %s: %s", "cache hit" if hit else "trained", task.task_id, artefact.file(CURVES))
     return artefact
+
+
+def train_study_task(cfg: Any, task_id: str) -> pd.DataFrame:
+    """Every SAC run the study of ``cfg`` makes on its task ``task_id``; returns their tidy curves.
+
+    The entry is composed as the study composes it (:func:`~taskcomplexity.compose.entry_config`: the typed
+    overrides, the study's policy family, the entry's own choices) and trained through the study's own
+    function (:func:`~taskcomplexity.stages.sac_stage.study_sac_curves`), so each run lands under the key the
+    study looks up. A typed group the entry chooses itself (``arm=…``) is refused, as the study refuses it.
+    """
+    study = study_from(cfg)
+    ids = [entry.id for entry in study.tasks]
+    if task_id not in ids:
+        raise ConfigError(f"sac.entry={task_id} is not a task of study {study.name} (allowed: {', '.join(ids)})")
+    index = ids.index(task_id)
+    typed = user_overrides()
+    node = entry_config(cfg, study.tasks[index], typed, f"study.tasks[{index}]", study_family(study, typed))
+    task = task_from_config(node)
+    refuse_untrainable(task, sac_settings_from_config(cfg.sac))
+    curves = study_sac_curves(cache_from_config(cfg), [(study.tasks[index], task)], cfg.sac, force=bool(cfg.force),
+                              progress=True)
+    log.info("SAC runs of %s (%s): %s", task_id, ", ".join(sorted(curves["variant"].unique())),
+             cache_from_config(cfg).root / "sac")
+    return curves
 
 
 def study_entry_for(cfg: Any, task) -> Any:

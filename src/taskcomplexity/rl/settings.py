@@ -76,6 +76,10 @@ class SACSettings:
         a resumed run repeat the uninterrupted one exactly; see ``taskcomplexity.rl.train``).
     num_threads : int
         torch intra-op threads during training (restored afterwards); 0 keeps torch's setting.
+    entry : str or None
+        ``pipelines/sac.py`` only: the id of a study task whose every SAC run the study would make (its
+        variants, at its budget) is trained, the task composed as the study composes it (one job of
+        ``make paper-jobs``). Not part of any result: the study finds these runs under its own keys.
     """
 
     enabled: bool = setting(True, result=False)
@@ -102,6 +106,7 @@ class SACSettings:
     her_strategy: str = "future"
     checkpoint_every: int = 10_000
     num_threads: int = 1
+    entry: str | None = setting(None, result=False)
 
     @property
     def variant(self) -> str:
@@ -130,6 +135,8 @@ class SACSettings:
             _check(where, name, getattr(self, name), "an integer >= 1", lambda v: isinstance(v, int) and v >= 1)
         _check(where, "warmup_steps", self.warmup_steps, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
         _check(where, "num_threads", self.num_threads, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
+        if self.entry is not None and (not isinstance(self.entry, str) or not self.entry):
+            raise ConfigError(f"{where}.entry must be a study task's id or null, got {self.entry!r}")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds) or min(self.seeds) < 0:
             raise ConfigError(
                 f"{where}.seeds must be a non-empty list of distinct integers >= 0, got {list(self.seeds)}"

@@ -109,6 +109,9 @@ def _sac(work: StudyWork):
 
 
 def _check_sac(settings: SACSettings, study, requests, typed: list[str]) -> None:
+    if settings.entry is not None:
+        raise ConfigError(f"sac.entry={settings.entry} is read by pipelines/sac.py (one study task's SAC runs, e.g. a "
+                          "job of `make paper-jobs`); the study trains every task: drop it")
     if not settings.enabled or study.kind == "variants":
         return
     if not study.has_sac_budgets and settings.total_steps is None:

@@ -1,0 +1,48 @@
+"""``sac.entry``: one study task's SAC runs from ``pipelines/sac.py`` (a job of ``make paper-jobs``) land under
+the keys the study's chain looks up, so the study reads them from the cache and trains nothing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from taskcomplexity.commands import sac as sac_command
+from taskcomplexity.compose import study_requests
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.plan import read_plan
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.sac_stage import MISSING_ATTR, study_sac_curves
+
+SMOKE = ("experiment=smoke", "sac.eval_episodes=1", "sac.total_steps=200", "sac.seeds=[0]")
+
+
+def test_a_study_tasks_runs_are_the_ones_the_study_finds(compose_config):
+    cfg = compose_config(*SMOKE, "sac.entry=two_link-sparse")
+    trained = sac_command.run(cfg)
+    assert set(trained["variant"]) == {"sac", "sac+her"}  # every variant the study makes on a sparse task
+    assert set(trained["task"]) == {"two_link-sparse"} and trained["env_step"].max() == 200
+
+    study_cfg = compose_config(*SMOKE, f"paths.outputs={cfg.paths.outputs}")
+    entries = {entry.id: (entry, request.task) for entry, request in study_requests(study_cfg)}
+    cache = Cache(Path(study_cfg.paths.cache))
+    found = study_sac_curves(cache, [entries["two_link-sparse"]], study_cfg.sac, cached_only=True)
+    assert found.attrs[MISSING_ATTR] == []
+    pd.testing.assert_frame_equal(found.reset_index(drop=True), trained.reset_index(drop=True))
+    # another task was not trained
+    other = study_sac_curves(cache, [entries["two_link-dense"]], study_cfg.sac, cached_only=True)
+    assert other.attrs[MISSING_ATTR] == ["two_link-dense"]
+
+
+def test_an_id_outside_the_study_is_refused_naming_the_allowed_ones(compose_config):
+    with pytest.raises(ConfigError, match=r"sac.entry=two_link-dnese is not a task of study seven_tasks "
+                                          r"\(allowed: one_link_1m0-dense, .*two_link-sparse\)"):
+        sac_command.train_study_task(compose_config(*SMOKE), "two_link-dnese")
+
+
+def test_the_study_refuses_sac_entry_before_any_work(compose_config):
+    with pytest.raises(ConfigError, match=r"sac.entry=two_link-sparse is read by pipelines/sac.py"):
+        read_plan(compose_config(*SMOKE, "sac.entry=two_link-sparse"))
+    with pytest.raises(ConfigError, match=r"sac.entry must be a study task's id or null, got ''"):
+        read_plan(compose_config(*SMOKE, "sac.entry=''"))
