@@ -3,7 +3,7 @@
     python pipelines/study.py experiment=published                   # `make run`: the published scale, no SAC
     python pipelines/study.py experiment=published sac.enabled=true  # `make paper`: + SAC (hours)
     python pipelines/study.py experiment=quick                       # `make quick`: minutes
-    python pipelines/study.py experiment=smoke                       # seconds
+    python pipelines/study.py experiment=smoke                       # about a minute
     python pipelines/study.py study=ablation                         # the appendix ablation (variants)
 
 Every stage is cached by config hash, so a rerun only computes what is missing; the last line

@@ -1,6 +1,6 @@
 """Verdict stage: every registered metric against every known relation of the study (cached).
 
-    python pipelines/verdict.py experiment=smoke                  # the seven tasks, in seconds
+    python pipelines/verdict.py experiment=smoke                  # the seven tasks, in about a minute
     python pipelines/verdict.py study=mine hydra.searchpath=[file://DIR]
 
 Pulls (computes if missing) every upstream artefact of the study — RWG, metrics, diagnostics and, when
