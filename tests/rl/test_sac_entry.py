@@ -46,3 +46,8 @@ def test_the_study_refuses_sac_entry_before_any_work(compose_config):
         read_plan(compose_config(*SMOKE, "sac.entry=two_link-sparse"))
     with pytest.raises(ConfigError, match=r"sac.entry must be a study task's id or null, got ''"):
         read_plan(compose_config(*SMOKE, "sac.entry=''"))
+
+
+def test_a_task_sac_skips_is_skipped_as_the_study_skips_it(compose_config):
+    curves = sac_command.run(compose_config("study=classic_control", "sac=smoke", "sac.entry=CartPole-v0"))
+    assert curves.empty and "discrete" in curves.attrs["sac_skipped"]["CartPole-v0"]

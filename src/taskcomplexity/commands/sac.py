@@ -33,7 +33,13 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.plan import cache_from_config, study_from
 from taskcomplexity.rl import with_budget
 from taskcomplexity.rl.train import refuse_untrainable
-from taskcomplexity.stages.sac_stage import CURVES, run_sac_stage, sac_settings_from_config, study_sac_curves
+from taskcomplexity.stages.sac_stage import (
+    CURVES,
+    SKIPPED_ATTR,
+    run_sac_stage,
+    sac_settings_from_config,
+    study_sac_curves,
+)
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -66,7 +72,8 @@ def train_study_task(cfg: Any, task_id: str) -> pd.DataFrame:
     The entry is composed as the study composes it (:func:`~taskcomplexity.compose.entry_config`: the typed
     overrides, the study's policy family, the entry's own choices) and trained through the study's own
     function (:func:`~taskcomplexity.stages.sac_stage.study_sac_curves`), so each run lands under the key the
-    study looks up. A typed group the entry chooses itself (``arm=…``) is refused, as the study refuses it.
+    study looks up. A typed group the entry chooses itself (``arm=…``) is refused, as the study refuses it; a
+    task SAC skips (discrete actions) is logged and skipped, as the study skips it.
     """
     study = study_from(cfg)
     ids = [entry.id for entry in study.tasks]
@@ -76,11 +83,13 @@ def train_study_task(cfg: Any, task_id: str) -> pd.DataFrame:
     typed = user_overrides()
     node = entry_config(cfg, study.tasks[index], typed, f"study.tasks[{index}]", study_family(study, typed))
     task = task_from_config(node)
-    refuse_untrainable(task, sac_settings_from_config(cfg.sac))
     curves = study_sac_curves(cache_from_config(cfg), [(study.tasks[index], task)], cfg.sac, force=bool(cfg.force),
                               progress=True)
-    log.info("SAC runs of %s (%s): %s", task_id, ", ".join(sorted(curves["variant"].unique())),
-             cache_from_config(cfg).root / "sac")
+    if task_id in curves.attrs[SKIPPED_ATTR]:  # as in the study: logged, not an error, so a sweep's job succeeds
+        log.info("SAC skips %s (%s): nothing to train", task_id, curves.attrs[SKIPPED_ATTR][task_id])
+    else:
+        log.info("SAC runs of %s (%s): %s", task_id, ", ".join(sorted(curves["variant"].unique())),
+                 cache_from_config(cfg).root / "sac")
     return curves
 
 
