@@ -9,7 +9,12 @@ reference (its state is then the one before the step, exactly as ``step`` leaves
 
 The policy's arithmetic is each environment's own (a fixed summation order per output), so an
 episode's return depends only on its policy and its initial state, not on the chunking, the block or
-the number of threads. It is the same function as :meth:`taskcomplexity.policies.PolicyBatch.act`
+the number of threads. The forward pass runs on the n active environments rounded up to a whole number
+of vectors (:data:`VECTOR`): the compiler's vector loop then covers every column, where the scalar loop it
+leaves for a remainder cost up to 40 % more time per pass (``bench/bench_kernel_split.py``); the extra
+columns hold earlier steps' finite numbers and are computed and ignored.
+
+It is the same function as :meth:`taskcomplexity.policies.PolicyBatch.act`
 up to the summation order of the matrix products (float64 rounding; ``tests/tasks/test_rollout_kernel.py``).
 
 Parameters of P policies are one float64 row each (:meth:`~taskcomplexity.policies.PolicyBatch.packed`):
@@ -145,6 +150,16 @@ def forward(w, layer_sizes, bias, relu, tanh_output, h, g, n):
     return cur
 
 
+VECTOR = 8
+"""Columns (environments) of the forward pass's vector loops: 8 float64 in an AVX-512 register, 2 × 4 with AVX2."""
+
+
+@numba.njit(cache=True)
+def _whole(n):
+    """n rounded up to whole :data:`VECTOR` s."""
+    return (n + VECTOR - 1) // VECTOR * VECTOR
+
+
 @numba.njit(parallel=True, cache=True)
 def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_bias, episodes, max_steps, state,
              dt, substeps):
@@ -163,7 +178,9 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
         hi = min(lo + BLOCK, (policy + 1) * episodes)
         w = weights[policy]
         index = np.empty(hi - lo, dtype=np.int64)
-        h, g = np.empty((width, hi - lo)), np.empty((width, hi - lo))
+        # room for whole vectors: the forward pass runs on n rounded up to VECTOR columns (module docstring);
+        # zeros, so that the columns past n only ever hold finite numbers
+        h, g = np.zeros((width, _whole(hi - lo))), np.zeros((width, _whole(hi - lo)))
         goals = block_goals(p, state.target, lo, hi)  # the target's terms, once per episode
         if input_bias:
             h[n_obs] = 1.0
@@ -175,7 +192,7 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
                 row = h[i]
                 for j in range(n):
                     row[j] = obs[index[j], i]
-            out = forward(w, layer_sizes, bias, relu, tanh_output, h, g, n)
+            out = forward(w, layer_sizes, bias, relu, tanh_output, h, g, _whole(n))
             for k in range(n_out):
                 row = out[k]
                 for j in range(n):
