@@ -15,6 +15,7 @@ import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.plan import StudyPlan
+from taskcomplexity.stages.ahead import computing_ahead
 from taskcomplexity.stages.cache import Artefact
 from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.stages.diagnostics_stage import STAGE as DIAGNOSTICS
@@ -66,12 +67,18 @@ class StudyArtefacts:
     further: dict[str, dict[str, Artefact]] | None = None
 
 
-def study_artefacts(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, progress: bool = True
-                    ) -> StudyArtefacts:
-    """Compute or reuse every artefact of the study of ``plan``, stage by stage (each logs its cache hits)."""
+def study_artefacts(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, progress: bool = True,
+                    ahead: bool | None = None) -> StudyArtefacts:
+    """Compute or reuse every artefact of the study of ``plan``, stage by stage (each logs its cache hits).
+
+    ``ahead``: compute the stages that read only a task's returns in a background process as the returns
+    come (:mod:`taskcomplexity.stages.ahead`; None: when the study is large enough). The artefacts are
+    the same either way.
+    """
     work = StudyWork(plan, registry, progress=progress)
-    for stage in CHAIN:
-        work.done[stage.name] = stage.run(work)
+    with computing_ahead(plan, STAGES, RWG, registry=registry, start=ahead):
+        for stage in CHAIN:
+            work.done[stage.name] = stage.run(work)
     done = work.done
     return StudyArtefacts(plan.study, plan.name, task_metrics(plan.tasks, done[RWG], done[METRICS]),
                           done[DIAGNOSTICS], done[SAC], done[VERDICT.name], plan.settings[METRICS].alpha,

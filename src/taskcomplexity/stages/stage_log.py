@@ -19,6 +19,10 @@ log = logging.getLogger(__name__)
 T = TypeVar("T")
 
 
+OUTCOME = "task_outcome"
+"""The attribute of each per-task log record that holds (stage, task, cache hit, wall seconds)."""
+
+
 def outcome(hit: bool, seconds: float) -> str:
     """A stage's outcome in the one-line summaries: ``cache hit`` or ``computed in 12 s``."""
     return "cache hit" if hit else f"computed in {seconds:.0f} s"
@@ -52,7 +56,8 @@ class StageLog:
         yield record
         record.seconds = time.perf_counter() - started
         self.records.append(record)
-        log.debug("%-26s %s %s", name, self.stage, outcome(record.hit, record.seconds))
+        log.debug("%-26s %s %s", name, self.stage, outcome(record.hit, record.seconds),
+                  extra={OUTCOME: (self.stage, name, record.hit, record.seconds)})
 
     @property
     def artefacts(self) -> list[Any]:
