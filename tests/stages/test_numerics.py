@@ -26,7 +26,7 @@ STAGES = sorted(p.stem.removesuffix("_stage") for p in STAGES_DIR.glob("*_stage.
 GLUE = frozenset({
     "taskcomplexity", "tasks", "metrics", "rl", "verdict", "policies",  # packages that re-export
     "config", "errors", "progress", "policies.families", "study", "tasks.quiet", "tasks.registration", "rwg.env_checks",
-    "metrics._validation", "rl.checkpoint", "stages.cache", "stages.keys", "stages.stage_log", "stages.actor_stages",
+    "metrics._validation", "rl.checkpoint", "rl.collectors", "stages.cache", "stages.keys", "stages.stage_log", "stages.actor_stages",
     "stages", "stages.stage", "stages.declared", "stages.task_artefacts",  # the stages' records and their loops
 })
 """Modules in a stage's reach that compute none of its numbers: configuration and validation, logging and

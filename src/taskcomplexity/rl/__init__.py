@@ -6,24 +6,26 @@ a tidy learning curve (see :data:`~taskcomplexity.rl.train.CURVE_COLUMNS`); ``tr
 trains several seeds together. Discrete action spaces are not trained (``sac_skip_reason``).
 """
 
-import warnings
-
-with warnings.catch_warnings():
-    # torchrl 0.14.1 warns about its own deprecated weight-updater classes while it defines them, on
-    # import of torchrl.collectors; nothing here uses them. Import it once, quietly.
-    warnings.filterwarnings(
-        "ignore", message=r"Creating \w+ which inherits from WeightUpdaterBase", category=DeprecationWarning
-    )
-    import torchrl.collectors  # noqa: F401
-
-from taskcomplexity.rl.settings import (  # noqa: E402
+from taskcomplexity.rl.settings import (
     SACSettings,
     has_goal_view,
     protocol_variants,
     sac_skip_reason,
     with_budget,
 )
-from taskcomplexity.rl.train import CURVE_COLUMNS, train_sac, train_sac_run, train_sac_seeds  # noqa: E402
+
+_TRAINING = ("CURVE_COLUMNS", "train_sac", "train_sac_run", "train_sac_seeds")
+
+
+def __getattr__(name: str):
+    """The training API, imported on first use: TorchRL takes over a second to import, and a study without
+    SAC (``make run``) reads only the settings above."""
+    if name in _TRAINING:
+        from taskcomplexity.rl import train
+
+        return getattr(train, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "CURVE_COLUMNS",

@@ -23,13 +23,13 @@ import numpy as np
 import torch
 from tensordict.nn import NormalParamExtractor, TensorDictModule, TensorDictSequential
 from torch import nn
-from torchrl.collectors import Collector
 from torchrl.data import Bounded, Categorical, LazyTensorStorage, TensorDictReplayBuffer
 from torchrl.envs import Compose, DoubleToFloat, EnvBase, GymWrapper, RewardSum, TransformedEnv
 from torchrl.envs.libs.gym import default_info_dict_reader
 from torchrl.modules import MLP, ProbabilisticActor, TanhNormal, ValueOperator
 from torchrl.objectives import SACLoss, SoftUpdate, ValueEstimators
 
+from taskcomplexity.rl.collectors import Collector
 from taskcomplexity.rl.her import make_her_replay_buffer
 from taskcomplexity.rl.layers import SeedBatchedLinear, reset_seed_parameters
 from taskcomplexity.seeding import derive_seed

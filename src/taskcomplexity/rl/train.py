@@ -49,7 +49,6 @@ import numpy as np
 import pandas as pd
 import torch
 from tensordict import TensorDictBase
-from torchrl.collectors import Collector
 from torchrl.data import TensorDictReplayBuffer
 from torchrl.envs import EnvBase
 from torchrl.modules import ProbabilisticActor
@@ -58,6 +57,7 @@ from tqdm.auto import tqdm
 
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.rl.checkpoint import load_checkpoint, save_checkpoint
+from taskcomplexity.rl.collectors import Collector
 from taskcomplexity.rl.evaluation import evaluate
 from taskcomplexity.rl.factories import (
     make_actor_critic,
