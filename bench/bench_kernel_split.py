@@ -94,7 +94,8 @@ def _timed_rollout(arm, p, zone, free_zone, weights, layer_sizes, relu, tanh_out
         hi = min(lo + BLOCK, (policy + 1) * episodes)
         w = weights[policy]
         index = np.empty(hi - lo, dtype=np.int64)
-        h, g = np.empty((width, hi - lo)), np.empty((width, hi - lo))
+        columns = rollout_kernel.whole_vectors(hi - lo)
+        h, g = np.zeros((width, columns)), np.zeros((width, columns))
         goals = block_goals(p, state.target, lo, hi)
         for _ in range(max_steps):
             c0 = _cycles()
@@ -106,7 +107,8 @@ def _timed_rollout(arm, p, zone, free_zone, weights, layer_sizes, relu, tanh_out
                 for j in range(n):
                     row[j] = obs[index[j], i]
             c1 = _cycles()
-            out = rollout_kernel.forward(w, layer_sizes, False, relu, tanh_output, h, g, n)
+            out = rollout_kernel.forward(w, layer_sizes, False, relu, tanh_output, h, g,
+                                         rollout_kernel.whole_vectors(n))
             c2 = _cycles()
             for k in range(n_out):
                 row = out[k]

@@ -155,7 +155,7 @@ VECTOR = 8
 
 
 @numba.njit(cache=True)
-def _whole(n):
+def whole_vectors(n):
     """n rounded up to whole :data:`VECTOR` s."""
     return (n + VECTOR - 1) // VECTOR * VECTOR
 
@@ -180,7 +180,7 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
         index = np.empty(hi - lo, dtype=np.int64)
         # room for whole vectors: the forward pass runs on n rounded up to VECTOR columns (module docstring);
         # zeros, so that the columns past n only ever hold finite numbers
-        h, g = np.zeros((width, _whole(hi - lo))), np.zeros((width, _whole(hi - lo)))
+        h, g = np.zeros((width, whole_vectors(hi - lo))), np.zeros((width, whole_vectors(hi - lo)))
         goals = block_goals(p, state.target, lo, hi)  # the target's terms, once per episode
         if input_bias:
             h[n_obs] = 1.0
@@ -192,7 +192,7 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
                 row = h[i]
                 for j in range(n):
                     row[j] = obs[index[j], i]
-            out = forward(w, layer_sizes, bias, relu, tanh_output, h, g, _whole(n))
+            out = forward(w, layer_sizes, bias, relu, tanh_output, h, g, whole_vectors(n))
             for k in range(n_out):
                 row = out[k]
                 for j in range(n):
