@@ -44,7 +44,7 @@ from taskcomplexity.rwg import initial_states
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks import contact, rollout_kernel
 from taskcomplexity.tasks.batched import BatchedReaching
-from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix
+from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix, whole_vectors
 from taskcomplexity.tasks.spec import make_task
 from taskcomplexity.tasks.step_kernel import (
     begin_step,
@@ -94,7 +94,7 @@ def _timed_rollout(arm, p, zone, free_zone, weights, layer_sizes, relu, tanh_out
         hi = min(lo + BLOCK, (policy + 1) * episodes)
         w = weights[policy]
         index = np.empty(hi - lo, dtype=np.int64)
-        columns = rollout_kernel.whole_vectors(hi - lo)
+        columns = whole_vectors(hi - lo)
         h, g = np.zeros((width, columns)), np.zeros((width, columns))
         goals = block_goals(p, state.target, lo, hi)
         for _ in range(max_steps):
@@ -108,14 +108,15 @@ def _timed_rollout(arm, p, zone, free_zone, weights, layer_sizes, relu, tanh_out
                     row[j] = obs[index[j], i]
             c1 = _cycles()
             out = rollout_kernel.forward(w, layer_sizes, False, relu, tanh_output, h, g,
-                                         rollout_kernel.whole_vectors(n))
+                                         whole_vectors(n))
             c2 = _cycles()
             for k in range(n_out):
                 row = out[k]
                 for j in range(n):
                     action[index[j], k] = row[j]
             c3 = _cycles()
-            a1, a2, u, v, t1, t2, upper, touched = begin_step(p, index, n, state)
+            columns = whole_vectors(n) if zone.mode == contact.NO_CONTACT else n  # as step_block does
+            a1, a2, u, v, t1, t2, upper, touched = begin_step(p, index, n, state, columns)
             c4 = _cycles()
             if contacts:
                 f1, f2, fu, fv, ft = a1.copy(), a2.copy(), u.copy(), v.copy(), touched.copy()

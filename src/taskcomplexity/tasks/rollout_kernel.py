@@ -10,9 +10,10 @@ reference (its state is then the one before the step, exactly as ``step`` leaves
 The policy's arithmetic is each environment's own (a fixed summation order per output), so an
 episode's return depends only on its policy and its initial state, not on the chunking, the block or
 the number of threads. The forward pass runs on the n active environments rounded up to a whole number
-of vectors (:data:`VECTOR`): the compiler's vector loop then covers every column, where the scalar loop it
-leaves for a remainder cost up to 40 % more time per pass (``bench/bench_kernel_split.py``); the extra
-columns hold earlier steps' finite numbers and are computed and ignored.
+of vectors (:data:`~taskcomplexity.tasks.dynamics.VECTOR`): the compiler's vector loop then covers every
+column, where the scalar loop it leaves for a remainder cost up to 40 % more time per pass
+(``bench/bench_kernel_split.py``); the extra columns hold earlier steps' finite numbers and are computed and
+ignored. The physics of a task without a block does the same (:func:`~taskcomplexity.tasks.step_kernel.step_block`).
 
 It is the same function as :meth:`taskcomplexity.policies.PolicyBatch.act`
 up to the summation order of the matrix products (float64 rounding; ``tests/tasks/test_rollout_kernel.py``).
@@ -28,7 +29,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix
+from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix, whole_vectors
 from taskcomplexity.tasks.step_kernel import KernelTask, block_goals, env_state, gather, step_block
 
 
@@ -148,16 +149,6 @@ def forward(w, layer_sizes, bias, relu, tanh_output, h, g, n):
                     row[e] = np.tanh(row[e])
         cur, nxt = nxt, cur
     return cur
-
-
-VECTOR = 8
-"""Columns (environments) of the forward pass's vector loops: 8 float64 in an AVX-512 register, 2 × 4 with AVX2."""
-
-
-@numba.njit(cache=True)
-def whole_vectors(n):
-    """n rounded up to whole :data:`VECTOR` s."""
-    return (n + VECTOR - 1) // VECTOR * VECTOR
 
 
 @numba.njit(parallel=True, cache=True)

@@ -29,8 +29,8 @@ import numba
 import numpy as np
 
 from taskcomplexity.tasks import rewards
-from taskcomplexity.tasks.contact import HANDOVER, ContactZone
-from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, integrate_block, inverse_mass_matrix
+from taskcomplexity.tasks.contact import HANDOVER, NO_CONTACT, ContactZone
+from taskcomplexity.tasks.dynamics import BLOCK, ArmParams, integrate_block, inverse_mass_matrix, whole_vectors
 from taskcomplexity.tasks.mechanics import (
     TaskParams,
     forearm_clearance_at,
@@ -157,23 +157,27 @@ def step_block(arm, inv, p, zone, index, n, state, dt, substeps, goals, lo):
     this one definition. ``reward[e]`` and ``done[e]`` are set for the stepped environments only.
     ``goals[e − lo]`` holds environment e's target terms (:func:`block_goals`).
     """
-    a1, a2, u, v, t1, t2, upper, touched = begin_step(p, index, n, state)
+    # without a block the physics runs on whole vectors (rollout_kernel.whole_vectors): the padded environments
+    # start at rest at zero and are never read; with one its contact loops run on the stepped environments only
+    columns = whole_vectors(n) if zone.mode == NO_CONTACT else n
+    a1, a2, u, v, t1, t2, upper, touched = begin_step(p, index, n, state, columns)
     integrate_block(arm, inv, a1, a2, u, v, t1, t2, dt, substeps, zone, touched)
     finish_step(p, zone, index, n, state, goals, lo, a1, a2, u, v, upper, touched)
 
 
 @numba.njit(cache=True)
-def begin_step(p, index, n, state):
+def begin_step(p, index, n, state, columns=-1):
     """The first part of :func:`step_block`: the n environments' joint states and clipped torques as
-    length-n arrays (a1, a2, u, v, t1, t2), the upper arm's clearance before the step (``upper``, m; 0
-    without an obstacle) and the physics' ``touched`` flags (all False)."""
+    arrays (a1, a2, u, v, t1, t2) of length ``columns`` (default n; past n all zero), the upper arm's clearance
+    before the step (``upper``, m; 0 without an obstacle) and the physics' ``touched`` flags (all False)."""
     q, qd, action = state.q, state.qd, state.action
     two_links = p.dof == 2
     obstacle = p.obstacle > 0
-    a1, u, t1 = np.empty(n), np.empty(n), np.empty(n)
-    a2, v, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
-    upper = np.zeros(n)
-    touched = np.zeros(n, dtype=np.bool_)
+    m = n if columns < 0 else columns
+    a1, u, t1 = np.zeros(m), np.zeros(m), np.zeros(m)
+    a2, v, t2 = np.zeros(m), np.zeros(m), np.zeros(m)
+    upper = np.zeros(m)
+    touched = np.zeros(m, dtype=np.bool_)
     for j in range(n):
         e = index[j]
         a1[j], u[j] = q[e, 0], qd[e, 0]
