@@ -44,7 +44,7 @@ from taskcomplexity.rwg import initial_states
 from taskcomplexity.study import load_study_file
 from taskcomplexity.tasks import contact, rollout_kernel
 from taskcomplexity.tasks.batched import BatchedReaching
-from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix, whole_vectors
+from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix, row_length, whole_vectors
 from taskcomplexity.tasks.spec import make_task
 from taskcomplexity.tasks.step_kernel import (
     begin_step,
@@ -94,7 +94,7 @@ def _timed_rollout(arm, p, zone, free_zone, weights, layer_sizes, relu, tanh_out
         hi = min(lo + BLOCK, (policy + 1) * episodes)
         w = weights[policy]
         index = np.empty(hi - lo, dtype=np.int64)
-        columns = whole_vectors(hi - lo)
+        columns = row_length(hi - lo)
         h, g = np.zeros((width, columns)), np.zeros((width, columns))
         goals = block_goals(p, state.target, lo, hi)
         for _ in range(max_steps):

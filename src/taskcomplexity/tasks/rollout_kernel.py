@@ -29,7 +29,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix, whole_vectors
+from taskcomplexity.tasks.dynamics import BLOCK, inverse_mass_matrix, row_length, whole_vectors
 from taskcomplexity.tasks.step_kernel import KernelTask, block_goals, env_state, gather, step_block
 
 
@@ -171,7 +171,7 @@ def _rollout(arm, p, zone, weights, layer_sizes, bias, relu, tanh_output, input_
         index = np.empty(hi - lo, dtype=np.int64)
         # room for whole vectors: the forward pass runs on n rounded up to VECTOR columns (module docstring);
         # zeros, so that the columns past n only ever hold finite numbers
-        h, g = np.zeros((width, whole_vectors(hi - lo))), np.zeros((width, whole_vectors(hi - lo)))
+        h, g = np.zeros((width, row_length(hi - lo))), np.zeros((width, row_length(hi - lo)))
         goals = block_goals(p, state.target, lo, hi)  # the target's terms, once per episode
         if input_bias:
             h[n_obs] = 1.0
