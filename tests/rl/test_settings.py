@@ -8,7 +8,7 @@ from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import SACSettings, protocol_variants, with_budget
-from taskcomplexity.study import study_from_config
+from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task, preset_tasks
 

@@ -18,15 +18,15 @@ import pytest
 
 import taskcomplexity
 from taskcomplexity.stages.keys import PACKAGE, Numerics
-from taskcomplexity.study_chain import CHAIN
+from taskcomplexity.study.chain import CHAIN
 
 STAGES_DIR = Path(taskcomplexity.__file__).parent / "stages"
 STAGES = sorted(p.stem.removesuffix("_stage") for p in STAGES_DIR.glob("*_stage.py"))
 
 GLUE = frozenset({
     "taskcomplexity", "tasks", "metrics", "rl", "verdict", "policies",  # packages that re-export
-    "config", "errors", "progress", "policies.families", "study", "tasks.quiet", "tasks.registration", "rwg.env_checks",
-    "metrics._validation", "rl.checkpoint", "stages.cache", "stages.keys", "stages.stage_log", "stages.actor_stages",
+    "config", "errors", "progress", "policies.families", "study_data", "tasks.quiet", "tasks.registration",
+    "rwg.env_checks", "metrics._validation", "rl.checkpoint", "stages.cache", "stages.keys", "stages.stage_log", "stages.actor_stages",
     "stages", "stages.stage", "stages.declared", "stages.task_artefacts",  # the stages' records and their loops
 })
 """Modules in a stage's reach that compute none of its numbers: configuration and validation, logging and

@@ -28,9 +28,7 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors, user_overrides
 from taskcomplexity.commands import entry_point
-from taskcomplexity.compose import entry_config, study_family
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.plan import cache_from_config, study_from
 from taskcomplexity.rl import with_budget
 from taskcomplexity.rl.train import refuse_untrainable
 from taskcomplexity.stages.sac_stage import (
@@ -40,6 +38,8 @@ from taskcomplexity.stages.sac_stage import (
     sac_settings_from_config,
     study_sac_curves,
 )
+from taskcomplexity.study.compose import entry_config, study_family
+from taskcomplexity.study.plan import cache_from_config, study_from
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -69,7 +69,7 @@ def run(cfg: DictConfig):
 def train_study_task(cfg: Any, task_id: str) -> pd.DataFrame:
     """Every SAC run the study of ``cfg`` makes on its task ``task_id``; returns their tidy curves.
 
-    The entry is composed as the study composes it (:func:`~taskcomplexity.compose.entry_config`: the typed
+    The entry is composed as the study composes it (:func:`~taskcomplexity.study.compose.entry_config`: the typed
     overrides, the study's policy family, the entry's own choices) and trained through the study's own
     function (:func:`~taskcomplexity.stages.sac_stage.study_sac_curves`), so each run lands under the key the
     study looks up. A typed group the entry chooses itself (``arm=…``) is refused, as the study refuses it; a

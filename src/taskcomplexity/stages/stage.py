@@ -3,7 +3,7 @@ judges it, what to do when it is missing, and how it runs over a study (:class:`
 
 The records of the stages before the verdict are in :mod:`taskcomplexity.stages.declared` (one entry per
 stage, in the order a study runs them); the verdict's own record (:data:`taskcomplexity.stages.verdict_stage.VERDICT`)
-reads them, and the chain (:data:`taskcomplexity.study_chain.CHAIN`) is both. Everything that lists stages reads
+reads them, and the chain (:data:`taskcomplexity.study.chain.CHAIN`) is both. Everything that lists stages reads
 the records: the plan (every stage's settings read and checked before any work), the chain (it runs each record
 in turn), the verdict (it judges every record with a :class:`Judged`, from the files that record names), the
 ``rwg`` command (it refuses the other stages' groups) and the report (what to say when a stage is missing).
@@ -61,7 +61,7 @@ class StudyWork:
     ----------
     plan : StudyPlan
         The study, its tasks' RWG requests, every stage's typed settings, the cache, ``force``
-        (:class:`taskcomplexity.plan.StudyPlan`).
+        (:class:`taskcomplexity.study.plan.StudyPlan`).
     registry : Registry
         The metrics estimated and judged.
     done : dict of stage name to output

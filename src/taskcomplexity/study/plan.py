@@ -1,14 +1,14 @@
 """The configuration read once: Hydra's composed config → a study's typed, checked plan (:func:`read_plan`).
 
 The study entry point turns the composed config into a :class:`StudyPlan` before any work: the study, each
-task's RWG request (each entry composed through Hydra, :mod:`taskcomplexity.compose`), every declared
+task's RWG request (each entry composed through Hydra, :mod:`taskcomplexity.study.compose`), every declared
 stage's typed settings (:data:`taskcomplexity.stages.declared.STAGES`, each read from its config group and
 checked against the study's tasks), the cache, and what the report needs (its name, title, directory).
-Below it, nothing reads the raw config: the chain (:mod:`taskcomplexity.study_chain`) and the report take
+Below it, nothing reads the raw config: the chain (:mod:`taskcomplexity.study.chain`) and the report take
 the plan.
 
 The single-stage commands read the little they need here too (:func:`metrics_settings_from_config`,
-:func:`cache_from_config`; their task's request: :func:`taskcomplexity.compose.rwg_request_from_config`).
+:func:`cache_from_config`; their task's request: :func:`taskcomplexity.study.compose.rwg_request_from_config`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 from taskcomplexity.cli import job_overrides, sac_command, sweep_job_dir, user_overrides
-from taskcomplexity.compose import study_requests
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Cache, ensure_writable
@@ -27,7 +26,8 @@ from taskcomplexity.stages.declared import STAGES, check_registry
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import STAGE as RWG
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study import Study, StudyTask, study_from_config
+from taskcomplexity.study.compose import study_requests
+from taskcomplexity.study_data import Study, StudyTask, study_from_config
 
 
 @dataclass(frozen=True)
@@ -118,7 +118,7 @@ def report_title(node: Any, name: str) -> str:
 
 
 def study_from(cfg: Any) -> Study:
-    """The :class:`~taskcomplexity.study.Study` of a composed config (``cfg.study``)."""
+    """The :class:`~taskcomplexity.study_data.Study` of a composed config (``cfg.study``)."""
     return study_from_config(cfg.study)
 
 

@@ -3,7 +3,7 @@ single-stage commands), or every study entry's (:func:`study_requests`), each en
 compose API: its own choices (task, arm, reward, prior, network, env id, …) over the command line's overrides
 and the study's policy family, at the N and M that apply to every entry (:func:`study_scale`).
 
-Read when the configuration is read (:mod:`taskcomplexity.plan`, :mod:`taskcomplexity.commands`).
+Read when the configuration is read (:mod:`taskcomplexity.study.plan`, :mod:`taskcomplexity.commands`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from taskcomplexity.cli import CONF_DIR, search_dirs, user_overrides
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study import Study, StudyTask, study_from_config
+from taskcomplexity.study_data import Study, StudyTask, study_from_config
 from taskcomplexity.tasks.from_config import task_from_config
 
 log = logging.getLogger("taskcomplexity")
@@ -157,7 +157,7 @@ def study_requests(cfg: Any, study: Study | None = None, settings=None) -> list[
     path): the entry's own choices (``task``, ``env_id``, ``kwargs``, ``max_steps``, ``arm``,
     ``reward``, ``prior``, ``network``) over the command line's overrides, so an override such as
     ``arm.links.0.mass=7`` reaches every study task. ``settings``: the RWG settings (default: read from
-    ``cfg.rwg``); N and M of every entry: :func:`~taskcomplexity.compose.study_scale`.
+    ``cfg.rwg``); N and M of every entry: :func:`~taskcomplexity.study.compose.study_scale`.
     """
     from taskcomplexity.rwg import RWGSettings, resolve_backend
 

@@ -1,5 +1,5 @@
-"""The whole chain of a study from a composed config: its plan, read once (:mod:`taskcomplexity.plan`), its
-artefacts (:mod:`taskcomplexity.study_chain`), then its report (:mod:`taskcomplexity.report`). The only
+"""The whole chain of a study from a composed config: its plan, read once (:mod:`taskcomplexity.study.plan`), its
+artefacts (:mod:`taskcomplexity.study.chain`), then its report (:mod:`taskcomplexity.report`). The only
 module that joins the chain and the report, so that neither imports the other."""
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ from pathlib import Path
 from typing import Any
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.plan import StudyPlan, read_plan
 from taskcomplexity.report.build import build_report
 from taskcomplexity.stages.declared import STAGES
-from taskcomplexity.study_chain import StudyArtefacts, study_artefacts
+from taskcomplexity.study.chain import StudyArtefacts, study_artefacts
+from taskcomplexity.study.plan import StudyPlan, read_plan
 
 log = logging.getLogger(__name__)
 

@@ -5,6 +5,9 @@ Studies live in ``taskcomplexity/conf/study/*.yaml`` (or a researcher's own dire
 verdict judges the study's relations, the report takes its labels, table order and colours from
 here. Nothing about a particular task is hard-coded elsewhere.
 
+This module stands below the stages, the verdict and the report, which read it; the study's plan, chain and
+run (:mod:`taskcomplexity.study`) stand above them.
+
 Example::
 
     name: mine
