@@ -12,8 +12,7 @@ from taskcomplexity.commands import sac as sac_command
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.sac_stage import MISSING_ATTR, study_sac_curves
-from taskcomplexity.study.compose import study_requests
-from taskcomplexity.study.plan import read_plan
+from taskcomplexity.study.plan import read_plan, study_requests
 
 SMOKE = ("experiment=smoke", "sac.eval_episodes=1", "sac.total_steps=200", "sac.seeds=[0]")
 

@@ -28,6 +28,7 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors, user_overrides
 from taskcomplexity.commands import entry_point
+from taskcomplexity.config import plain
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import with_budget
 from taskcomplexity.rl.train import refuse_untrainable
@@ -39,7 +40,7 @@ from taskcomplexity.stages.sac_stage import (
     study_sac_curves,
 )
 from taskcomplexity.study.compose import entry_config, study_family
-from taskcomplexity.study.plan import cache_from_config, study_from
+from taskcomplexity.study.plan import cache_from_config, entry_base, study_from
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -81,7 +82,8 @@ def train_study_task(cfg: Any, task_id: str) -> pd.DataFrame:
         raise ConfigError(f"sac.entry={task_id} is not a task of study {study.name} (allowed: {', '.join(ids)})")
     index = ids.index(task_id)
     typed = user_overrides()
-    node = entry_config(cfg, study.tasks[index], typed, f"study.tasks[{index}]", study_family(study, typed))
+    family = study_family(study, typed)
+    node = entry_config(entry_base(plain(cfg)), study.tasks[index], typed, f"study.tasks[{index}]", family)
     task = task_from_config(node)
     curves = study_sac_curves(cache_from_config(cfg), [(study.tasks[index], task)], cfg.sac, force=bool(cfg.force),
                               progress=True)
@@ -101,10 +103,10 @@ def study_entry_for(cfg: Any, task) -> Any:
     ``identity()``. The command line's overrides are not applied to the entries: they chose ``task``
     (``arm=two_link`` picks the study's two-link entry; a modified arm matches no entry).
     """
-    study = study_from(cfg)
+    study, base = study_from(cfg), entry_base(plain(cfg))
     wanted = (type(task).__name__, task.identity())
     for i, entry in enumerate(study.tasks):
-        candidate = task_from_config(entry_config(cfg, entry, [], f"study.tasks[{i}]"))
+        candidate = task_from_config(entry_config(base, entry, [], f"study.tasks[{i}]"))
         if (type(candidate).__name__, candidate.identity()) == wanted:
             return entry
     return None
