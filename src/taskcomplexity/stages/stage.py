@@ -115,6 +115,9 @@ class Stage:
     missing : str
         For a stage beyond the paper: what it needs, said by the report when none of its values was computed
         ("" for the paper's own stages).
+    order : int
+        Its place in a study's chain: the stages run, and the verdict and the report list them, in this order
+        (each after the stages it reads; :func:`taskcomplexity.stages.declared.discover` checks it).
     """
 
     name: str
@@ -128,6 +131,7 @@ class Stage:
     check: Callable[[Any, Any, tuple, list[str]], None] | None = None
     judged: Judged | None = None
     missing: str = ""
+    order: int = 0
 
     def __post_init__(self) -> None:
         if (self.group is None) != (self.settings is None):
