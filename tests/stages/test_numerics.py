@@ -93,7 +93,7 @@ def reach(stage: str) -> set[str]:
 
 
 def test_every_stage_module_declares_its_numerics_and_every_declared_module_exists():
-    assert set(STAGES) == set(INPUTS), "a stage module without a record in stages/declared.py, or a record without one"
+    assert set(STAGES) == set(INPUTS), "a stage module without a RECORD, or a record without a module"
     for stage in STAGES:
         numerics = _numerics(stage)
         assert isinstance(numerics, Numerics), stage
