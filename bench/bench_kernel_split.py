@@ -41,7 +41,7 @@ from threadpoolctl import threadpool_limits
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies
 from taskcomplexity.rwg import initial_states
-from taskcomplexity.study import load_study_file
+from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks import contact, rollout_kernel
 from taskcomplexity.tasks.batched import BatchedReaching
 from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix, row_length, whole_vectors

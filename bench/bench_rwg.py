@@ -36,7 +36,7 @@ import numpy as np
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policies
 from taskcomplexity.rwg import RWGSettings, _simulate_batched, initial_states, run_rwg
-from taskcomplexity.study import load_study_file
+from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.spec import make_task
 
 PAPER_STUDY = CONF_DIR / "study" / "seven_tasks.yaml"

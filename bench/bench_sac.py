@@ -33,7 +33,7 @@ import taskcomplexity  # noqa: F401 - registers the tasks
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.rl import SACSettings, protocol_variants, train_sac, train_sac_seeds, with_budget
 from taskcomplexity.rl.factories import make_env
-from taskcomplexity.study import load_study_file
+from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.spec import make_task
 
 PAPER_STUDY = CONF_DIR / "study" / "seven_tasks.yaml"

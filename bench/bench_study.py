@@ -29,12 +29,12 @@ from hydra import compose, initialize_config_dir
 from omegaconf import open_dict
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.plan import read_plan
 from taskcomplexity.rwg import simulate_chunk
 from taskcomplexity.stages.diagnostics_stage import run_diagnostics_stage
 from taskcomplexity.stages.metrics_stage import run_metrics_stage
 from taskcomplexity.stages.rwg_stage import run_rwg_stage
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
+from taskcomplexity.study.plan import read_plan
 
 CORES = os.cpu_count() or 1
 

@@ -30,9 +30,9 @@ from hydra import compose, initialize_config_dir
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import pic
-from taskcomplexity.plan import read_plan
 from taskcomplexity.stages.rwg_stage import load_returns, run_rwg_stage
 from taskcomplexity.stages.task_artefacts import study_metrics
+from taskcomplexity.study.plan import read_plan
 
 PUBLISHED = {
     # Table 1 of the paper, bootstrap mean ± sd (nats), with the entropies where they were reported;

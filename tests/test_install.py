@@ -28,7 +28,7 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.study import load_study_file
+from taskcomplexity.study_data import load_study_file
 
 ROOT = Path(__file__).resolve().parents[1]
 SEVEN_IDS = sorted(task.id for task in load_study_file(CONF_DIR / "study" / "seven_tasks.yaml").tasks)

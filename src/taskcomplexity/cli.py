@@ -4,7 +4,7 @@ it, and errors → one line and an exit status.
 Entry points call :func:`check_overrides` before Hydra parses the command line (so an unknown config
 group option is reported in one line, not a traceback) and wrap their task function with
 :func:`one_line_errors`. What the composed config means (the study's plan, every stage's typed settings)
-is read once, by :mod:`taskcomplexity.plan`.
+is read once, by :mod:`taskcomplexity.study.plan`.
 """
 
 from __future__ import annotations

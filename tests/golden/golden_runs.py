@@ -168,7 +168,7 @@ def _chain(root: Path) -> dict[str, Golden]:
     from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
     from taskcomplexity.stages.sac_stage import run_sac_stage
     from taskcomplexity.stages.verdict_stage import run_verdict_stage
-    from taskcomplexity.study import load_study_file
+    from taskcomplexity.study_data import load_study_file
     from taskcomplexity.tasks.gym_task import GymTask
     from taskcomplexity.tasks.spec import make_task, task_from_id
 

@@ -19,7 +19,7 @@ from taskcomplexity.stages.metrics_stage import MetricsSettings, metrics_key
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns
 from taskcomplexity.stages.task_artefacts import study_metrics
 from taskcomplexity.stages.verdict_stage import run_verdict_stage
-from taskcomplexity.study import load_study_file
+from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 
 SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")

@@ -11,7 +11,7 @@ import pytest
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics import DEFAULT_REGISTRY, Metric
-from taskcomplexity.study import Relation, load_study_file, study_from_config
+from taskcomplexity.study_data import Relation, load_study_file, study_from_config
 from taskcomplexity.verdict import by_relation, judge, pairwise_welch, summarise
 from taskcomplexity.verdict.references import correlations, quantities, reference_scores
 

@@ -44,7 +44,7 @@ def run_stages():
 @pytest.fixture(scope="session")
 def scored_study():
     """Three gymnasium tasks with a learning algorithm's scores (A_max, A_avg): Score(A), Score(R) and correlations."""
-    from taskcomplexity.study import study_from_config
+    from taskcomplexity.study_data import study_from_config
 
     return study_from_config({
         "name": "scored",

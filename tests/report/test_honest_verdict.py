@@ -11,7 +11,7 @@ from taskcomplexity.report.build import build_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study import PAPER_SCALE, study_from_config
+from taskcomplexity.study_data import PAPER_SCALE, study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 
 PAIR = study_from_config({

@@ -22,7 +22,7 @@ from taskcomplexity.report.build import build_report
 from taskcomplexity.report.format import mean_sd
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns
-from taskcomplexity.study import load_study_file
+from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 from taskcomplexity.verdict import OUTCOMES
 

@@ -11,7 +11,7 @@ from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import policy_statistics
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.labels import task_styles
-from taskcomplexity.study import load_study_file, study_from_config
+from taskcomplexity.study_data import load_study_file, study_from_config
 
 SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 

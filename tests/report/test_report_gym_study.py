@@ -12,7 +12,7 @@ from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study import study_from_config
+from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 
 PAIR = study_from_config({

@@ -6,7 +6,7 @@ import seaborn as sns
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.report.labels import kind_label, task_styles
-from taskcomplexity.study import load_study_file, study_from_config
+from taskcomplexity.study_data import load_study_file, study_from_config
 
 SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
 

@@ -16,7 +16,7 @@ from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.sweep import JOB_FILE, cell_names, sweep_jobs, write_sweep_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study import study_from_config
+from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -21,7 +21,7 @@ from taskcomplexity.rl.checkpoint import load_checkpoint
 from taskcomplexity.rl.factories import make_actor_critic, make_env, make_loss, success_info_key
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.sac_stage import CURVES, MISSING_ATTR, SKIPPED_ATTR, sac_identity, study_sac_curves
-from taskcomplexity.study import study_from_config
+from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
 

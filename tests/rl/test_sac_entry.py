@@ -9,11 +9,10 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.commands import sac as sac_command
-from taskcomplexity.compose import study_requests
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.plan import read_plan
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.sac_stage import MISSING_ATTR, study_sac_curves
+from taskcomplexity.study.plan import read_plan, study_requests
 
 SMOKE = ("experiment=smoke", "sac.eval_episodes=1", "sac.total_steps=200", "sac.seeds=[0]")
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.config import build
+from taskcomplexity.config import build, plain
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import SACSettings, protocol_variants, with_budget
-from taskcomplexity.study import study_from_config
+from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task, preset_tasks
 
@@ -29,7 +29,7 @@ SPEC_BUDGETS = {
 def test_every_sac_option_composes_into_valid_settings_with_a_budget_for_every_study_task(compose_config, option):
     cfg = compose_config(f"sac={option}")
     settings = build(SACSettings, cfg.sac, "sac")
-    study = study_from_config(cfg.study)
+    study = study_from_config(plain(cfg.study))
     for entry in study.tasks:
         steps = with_budget(settings, entry.sac_steps, task_id=entry.id).total_steps
         assert steps > settings.warmup_steps, "updates must happen within every budget"
@@ -37,7 +37,7 @@ def test_every_sac_option_composes_into_valid_settings_with_a_budget_for_every_s
 
 
 def test_the_paper_study_holds_the_reference_budgets_and_the_sac_options_none(compose_config):
-    study = study_from_config(compose_config("study=seven_tasks").study)
+    study = study_from_config(plain(compose_config("study=seven_tasks").study))
     assert {entry.id: entry.sac_steps for entry in study.tasks} == SPEC_BUDGETS
     for option in SAC_OPTIONS:
         assert "budgets" not in compose_config(f"sac={option}").sac, option
@@ -81,7 +81,7 @@ def test_experiment_beyond_is_the_published_study_with_a_fifth_of_the_sac_budget
     settings = build(SACSettings, beyond.sac, "sac").validate()
     assert settings.enabled and settings.seeds == (0, 1) and settings.checkpoint_every == 2000
     budgets = {entry.id: with_budget(settings, entry.sac_steps, task_id=entry.id).total_steps
-               for entry in study_from_config(beyond.study).tasks}
+               for entry in study_from_config(plain(beyond.study)).tasks}
     assert budgets == {task: steps // 5 for task, steps in SPEC_BUDGETS.items()}
     assert beyond.tag == "beyond"
 

@@ -13,12 +13,12 @@ from hydra.core.global_hydra import GlobalHydra
 from omegaconf import open_dict
 
 from taskcomplexity.cli import CONF_DIR
-from taskcomplexity.plan import read_plan
 from taskcomplexity.stages import ahead
 from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.stages.rwg_stage import STAGE as RWG
-from taskcomplexity.stages.task_artefacts import study_returns
-from taskcomplexity.study_chain import study_artefacts
+from taskcomplexity.stages.rwg_stage import study_returns
+from taskcomplexity.study.chain import study_artefacts
+from taskcomplexity.study.plan import read_plan
 
 AHEAD = tuple(stage.name for stage in ahead.ahead_stages(STAGES, RWG))
 

@@ -12,11 +12,11 @@ import taskcomplexity
 from taskcomplexity.cli import CONF_DIR, config_groups
 from taskcomplexity.commands.rwg import UNREAD
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.plan import read_plan
 from taskcomplexity.stages.declared import STAGES, judged_stages
 from taskcomplexity.stages.stage import SEEDS
 from taskcomplexity.stages.verdict_stage import VERDICT
-from taskcomplexity.study_chain import CHAIN
+from taskcomplexity.study.chain import CHAIN
+from taskcomplexity.study.plan import read_plan
 
 SOURCE = Path(taskcomplexity.__file__).parent
 

@@ -87,9 +87,9 @@ def test_bad_settings_are_one_line_naming_the_key(key, value, match):
 @pytest.fixture(scope="module")
 def with_sac(tmp_path_factory):
     """Three dense arm tasks at smoke size with SAC trained (200 steps, one seed): the whole chain and its report."""
-    from taskcomplexity.plan import read_plan
-    from taskcomplexity.study_chain import study_artefacts
-    from taskcomplexity.study_run import run_study
+    from taskcomplexity.study.chain import study_artefacts
+    from taskcomplexity.study.plan import read_plan
+    from taskcomplexity.study.run import run_study
 
     GlobalHydra.instance().clear()
     with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
@@ -159,8 +159,8 @@ def test_the_learning_path_runs_at_every_sac_snapshot_and_enters_the_verdict(wit
 
 
 def test_the_occupancy_key_follows_its_settings_and_a_rerun_hits_the_cache(with_sac, caplog):
-    from taskcomplexity.plan import read_plan
-    from taskcomplexity.study_chain import study_artefacts
+    from taskcomplexity.study.chain import study_artefacts
+    from taskcomplexity.study.plan import read_plan
 
     cfg, artefacts, _ = with_sac
     again = study_artefacts(read_plan(cfg))

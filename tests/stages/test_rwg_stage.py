@@ -11,11 +11,11 @@ import pandas as pd
 import pytest
 
 from taskcomplexity.commands import metrics as metrics_command
-from taskcomplexity.compose import rwg_request_from_config
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
+from taskcomplexity.study.plan import rwg_request_from_config
 from taskcomplexity.tasks.spec import make_task
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -13,9 +13,9 @@ from omegaconf import open_dict
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.plan import read_plan, study_from
-from taskcomplexity.study_chain import study_artefacts
-from taskcomplexity.study_run import run_study
+from taskcomplexity.study.chain import study_artefacts
+from taskcomplexity.study.plan import read_plan, study_from
+from taskcomplexity.study.run import run_study
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import pytest
 from omegaconf import open_dict
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.study_run import run_study
+from taskcomplexity.study.run import run_study
 
 
 @pytest.mark.parametrize(

@@ -31,7 +31,7 @@ def pipeline(name: str, args: list[str], cwd: Path) -> subprocess.CompletedProce
 # -- a study's own N, M ------------------------------------------------------------------------------
 
 def test_an_experiments_n_and_m_win_over_the_studys_own_and_the_log_says_so(compose_config, caplog):
-    from taskcomplexity.compose import study_requests
+    from taskcomplexity.study.plan import study_requests
 
     with caplog.at_level(logging.INFO, logger="taskcomplexity"):
         requests = [r for _, r in study_requests(compose_config("study=classic_control", "experiment=smoke"))]
@@ -43,7 +43,7 @@ def test_an_experiments_n_and_m_win_over_the_studys_own_and_the_log_says_so(comp
 
 
 def test_without_an_explicit_n_and_m_the_studys_own_apply(compose_config, caplog):
-    from taskcomplexity.compose import study_requests
+    from taskcomplexity.study.plan import study_requests
 
     with caplog.at_level(logging.INFO, logger="taskcomplexity"):
         requests = [r for _, r in study_requests(compose_config("study=classic_control"))]
@@ -126,11 +126,10 @@ def _actors_file(task, path: Path) -> Path:
 
 
 def test_the_occupancy_stage_says_why_each_task_without_an_actor_is_left_out(compose_config, tmp_path, caplog):
-    from taskcomplexity.compose import study_requests
-    from taskcomplexity.plan import cache_from_config
     from taskcomplexity.stages.actor_stages import unavailable_actors
     from taskcomplexity.stages.occupancy_stage import OccupancySettings, study_occupancy
     from taskcomplexity.stages.sac_stage import study_sac_curves
+    from taskcomplexity.study.plan import cache_from_config, study_requests
 
     cfg = compose_config("study=classic_control", "experiment=smoke")
     pairs = study_requests(cfg)

@@ -97,7 +97,7 @@ def test_a_gym_task_needs_its_id_and_refuses_reaching_keys(compose_config):
         task_from_config(compose_config("task=gym"))
     task = task_from_config(compose_config("task=gym", "task.env_id=Pendulum-v1", "task.max_steps=60"))
     assert (task.task_id, task.max_steps) == ("Pendulum-v1", 60)
-    from taskcomplexity.compose import refuse_unread_overrides
+    from taskcomplexity.study.plan import refuse_unread_overrides
 
     with pytest.raises(ConfigError, match=r"arm=two_link is not read by task Pendulum-v1"):
         refuse_unread_overrides(task, ["arm=two_link"])
@@ -108,8 +108,7 @@ def test_a_gym_task_needs_its_id_and_refuses_reaching_keys(compose_config):
 
 @pytest.mark.parametrize("study", STUDIES)
 def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compose_config, study):
-    from taskcomplexity.compose import study_requests
-    from taskcomplexity.plan import study_from
+    from taskcomplexity.study.plan import study_from, study_requests
 
     cfg = compose_config(f"study={study}", "experiment=smoke")
     loaded = study_from(cfg)
@@ -146,7 +145,7 @@ def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compos
     ],
 )
 def test_bad_studies_are_refused_in_one_line_naming_the_key(study, message):
-    from taskcomplexity.study import study_from_config
+    from taskcomplexity.study_data import study_from_config
 
     with pytest.raises(ConfigError, match=message) as err:
         study_from_config(study)
@@ -154,8 +153,8 @@ def test_bad_studies_are_refused_in_one_line_naming_the_key(study, message):
 
 
 def test_a_study_entry_that_chooses_its_own_arm_refuses_the_same_override_on_the_command_line():
-    from taskcomplexity.compose import _entry_overrides
-    from taskcomplexity.study import study_from_config
+    from taskcomplexity.study.compose import _entry_overrides
+    from taskcomplexity.study_data import study_from_config
 
     entry = study_from_config({"name": "s", "tasks": [{"arm": "two_link", "reward": "dense"}]}).tasks[0]
     assert _entry_overrides(entry, ["arm.links.0.mass=7"], "study.tasks[0]") == [
@@ -165,7 +164,7 @@ def test_a_study_entry_that_chooses_its_own_arm_refuses_the_same_override_on_the
 
 
 def test_experiment_published_runs_at_the_scale_the_study_declares(compose_config):
-    from taskcomplexity.plan import study_from
+    from taskcomplexity.study.plan import study_from
 
     cfg = compose_config("experiment=published")
     published = study_from(cfg).published
@@ -190,27 +189,29 @@ def test_experiment_published_without_a_published_scale_is_one_line(compose_conf
 
 
 def test_a_studys_policy_family_applies_unless_the_command_line_or_the_entry_chooses(compose_config):
-    from taskcomplexity.compose import _entry_overrides, entry_config, study_family
-    from taskcomplexity.study import study_from_config
+    from taskcomplexity.config import plain
+    from taskcomplexity.study.compose import _entry_overrides, entry_config, study_family
+    from taskcomplexity.study.plan import entry_base
+    from taskcomplexity.study_data import study_from_config
 
     study = study_from_config({"name": "s", "network": "pic_h2_64", "prior": "normal",
                                "tasks": [{"task": "cartpole"}, {"task": "pendulum", "network": "pic_h1_4"}]})
-    cfg = compose_config("study=classic_control")
+    base = entry_base(plain(compose_config("study=classic_control")))
     family = study_family(study, [])
     assert family == {"network": "pic_h2_64", "prior": "normal"}
-    node = entry_config(cfg, study.tasks[0], [], "study.tasks[0]", family)
+    node = entry_config(base, study.tasks[0], [], "study.tasks[0]", family)
     assert list(node.network.hidden) == [64, 64] and node.network.activation == "tanh"
-    assert list(entry_config(cfg, study.tasks[1], [], "study.tasks[1]", family).network.hidden) == [4]
+    assert list(entry_config(base, study.tasks[1], [], "study.tasks[1]", family).network.hidden) == [4]
     # the command line's network= wins over the study's; a key override applies on top of the study's family
     assert study_family(study, ["network=pic_h1_32"]) == {"prior": "normal"}
     assert _entry_overrides(study.tasks[0], ["network.hidden=[8]"], "study.tasks[0]", family) == [
         "network.hidden=[8]", "network=pic_h2_64", "prior=normal", "task=cartpole"]
-    node = entry_config(cfg, study.tasks[0], ["network.hidden=[8]"], "study.tasks[0]", family)
+    node = entry_config(base, study.tasks[0], ["network.hidden=[8]"], "study.tasks[0]", family)
     assert list(node.network.hidden) == [8] and node.network.activation == "tanh"
 
 
 def test_an_unknown_study_network_is_one_line_naming_the_options(compose_config):
-    from taskcomplexity.compose import study_requests
+    from taskcomplexity.study.plan import study_requests
 
     cfg = compose_config("study=classic_control", "study.network=pic_h9_9")
     with pytest.raises(ConfigError, match=r"study\.network=pic_h9_9 is not a known network option \(allowed: "):
@@ -218,8 +219,8 @@ def test_an_unknown_study_network_is_one_line_naming_the_options(compose_config)
 
 
 def test_the_seven_task_study_declares_the_papers_scale(compose_config):
-    from taskcomplexity.plan import study_from
-    from taskcomplexity.study import PAPER_SCALE
+    from taskcomplexity.study.plan import study_from
+    from taskcomplexity.study_data import PAPER_SCALE
 
     assert study_from(compose_config()).published == PAPER_SCALE
 
@@ -230,7 +231,7 @@ def test_the_seven_task_study_declares_the_papers_scale(compose_config):
     (("study.policies=100",), 100 * 1000 // 50),    # off the protocol's N, M: the paper's ratio
 ])
 def test_metrics_bins_auto_resolves_per_study_protocol(compose_config, overrides, bins):
-    from taskcomplexity.plan import metrics_settings_from_config, study_from
+    from taskcomplexity.study.plan import metrics_settings_from_config, study_from
 
     cfg = compose_config("study=classic_control", *overrides)
     study = study_from(cfg)
@@ -240,7 +241,7 @@ def test_metrics_bins_auto_resolves_per_study_protocol(compose_config, overrides
 
 
 def test_metrics_bins_refuses_anything_but_an_integer_or_auto(compose_config):
-    from taskcomplexity.plan import metrics_settings_from_config
+    from taskcomplexity.study.plan import metrics_settings_from_config
 
     for value, shown in (("many", "'many'"), ("1", "1")):
         with pytest.raises(ConfigError, match=rf"metrics\.bins must be an integer >= 2 \(B\) or auto .*got {shown}"):

@@ -21,7 +21,7 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.seeding import episode_reset_seeds
-from taskcomplexity.study import load_study_file
+from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.base import decode_actions
 from taskcomplexity.tasks.classic import KERNELS
 from taskcomplexity.tasks.classic.noisy_cartpole import NoisyCartPoleEnv

@@ -15,7 +15,7 @@ from taskcomplexity.metrics.diagnostics import permutation_null
 from taskcomplexity.metrics.evaluate import batch_estimates
 from taskcomplexity.metrics.pic import auto_bins, pic
 from taskcomplexity.stages.metrics_stage import MetricsSettings
-from taskcomplexity.study import Relation
+from taskcomplexity.study_data import Relation
 from taskcomplexity.verdict import information, judge, null_means, summarise, uninformative
 from taskcomplexity.verdict.information import CEILING_MARGIN, null_test
 

@@ -17,7 +17,7 @@ from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
 from taskcomplexity.stages.task_artefacts import study_metrics
 from taskcomplexity.stages.verdict_stage import FILES, SAC_FILE, run_verdict_stage
-from taskcomplexity.study import Relation, load_study_file
+from taskcomplexity.study_data import Relation, load_study_file
 from taskcomplexity.tasks.spec import task_from_id
 
 SEVEN_TASKS = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")

@@ -17,12 +17,17 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
-from taskcomplexity.compose import rwg_request_from_config, study_requests
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
-from taskcomplexity.plan import cache_from_config, metrics_settings_from_config, run_name
 from taskcomplexity.stages.metrics_stage import STAGE
 from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
+from taskcomplexity.study.plan import (
+    cache_from_config,
+    metrics_settings_from_config,
+    run_name,
+    rwg_request_from_config,
+    study_requests,
+)
 from taskcomplexity.tasks.from_config import task_from_config
 
 log = logging.getLogger("metrics")

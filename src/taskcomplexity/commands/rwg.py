@@ -12,10 +12,9 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors, refuse_unread_groups, user_overrides
 from taskcomplexity.commands import entry_point
-from taskcomplexity.compose import rwg_request_from_config
-from taskcomplexity.plan import cache_from_config
 from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.stages.rwg_stage import STAGE, run_rwg_stage
+from taskcomplexity.study.plan import cache_from_config, rwg_request_from_config
 
 log = logging.getLogger("rwg")
 

@@ -28,9 +28,8 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors, user_overrides
 from taskcomplexity.commands import entry_point
-from taskcomplexity.compose import entry_config, study_family
+from taskcomplexity.config import plain
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.plan import cache_from_config, study_from
 from taskcomplexity.rl import with_budget
 from taskcomplexity.rl.train import refuse_untrainable
 from taskcomplexity.stages.sac_stage import (
@@ -40,6 +39,8 @@ from taskcomplexity.stages.sac_stage import (
     sac_settings_from_config,
     study_sac_curves,
 )
+from taskcomplexity.study.compose import entry_config, study_family
+from taskcomplexity.study.plan import cache_from_config, entry_base, study_from
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -69,7 +70,7 @@ def run(cfg: DictConfig):
 def train_study_task(cfg: Any, task_id: str) -> pd.DataFrame:
     """Every SAC run the study of ``cfg`` makes on its task ``task_id``; returns their tidy curves.
 
-    The entry is composed as the study composes it (:func:`~taskcomplexity.compose.entry_config`: the typed
+    The entry is composed as the study composes it (:func:`~taskcomplexity.study.compose.entry_config`: the typed
     overrides, the study's policy family, the entry's own choices) and trained through the study's own
     function (:func:`~taskcomplexity.stages.sac_stage.study_sac_curves`), so each run lands under the key the
     study looks up. A typed group the entry chooses itself (``arm=…``) is refused, as the study refuses it; a
@@ -81,7 +82,8 @@ def train_study_task(cfg: Any, task_id: str) -> pd.DataFrame:
         raise ConfigError(f"sac.entry={task_id} is not a task of study {study.name} (allowed: {', '.join(ids)})")
     index = ids.index(task_id)
     typed = user_overrides()
-    node = entry_config(cfg, study.tasks[index], typed, f"study.tasks[{index}]", study_family(study, typed))
+    family = study_family(study, typed)
+    node = entry_config(entry_base(plain(cfg)), study.tasks[index], typed, f"study.tasks[{index}]", family)
     task = task_from_config(node)
     curves = study_sac_curves(cache_from_config(cfg), [(study.tasks[index], task)], cfg.sac, force=bool(cfg.force),
                               progress=True)
@@ -101,10 +103,10 @@ def study_entry_for(cfg: Any, task) -> Any:
     ``identity()``. The command line's overrides are not applied to the entries: they chose ``task``
     (``arm=two_link`` picks the study's two-link entry; a modified arm matches no entry).
     """
-    study = study_from(cfg)
+    study, base = study_from(cfg), entry_base(plain(cfg))
     wanted = (type(task).__name__, task.identity())
     for i, entry in enumerate(study.tasks):
-        candidate = task_from_config(entry_config(cfg, entry, [], f"study.tasks[{i}]"))
+        candidate = task_from_config(entry_config(base, entry, [], f"study.tasks[{i}]"))
         if (type(candidate).__name__, candidate.identity()) == wanted:
             return entry
     return None

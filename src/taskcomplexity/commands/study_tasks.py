@@ -15,7 +15,7 @@ from taskcomplexity.cli import CONF_DIR, fail
 
 def study_task_ids(name: str) -> list[str]:
     """The ids of the tasks of study ``name`` (a packaged study's name or a YAML file's path), in study order."""
-    from taskcomplexity.study import load_study_file
+    from taskcomplexity.study_data import load_study_file
 
     path = Path(name) if name.endswith((".yaml", ".yml")) else CONF_DIR / "study" / f"{name}.yaml"
     if not path.is_file():

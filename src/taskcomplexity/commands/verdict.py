@@ -18,8 +18,8 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
-from taskcomplexity.plan import read_plan
-from taskcomplexity.study_chain import study_artefacts
+from taskcomplexity.study.chain import study_artefacts
+from taskcomplexity.study.plan import read_plan
 
 log = logging.getLogger("verdict")
 

@@ -34,7 +34,7 @@ from taskcomplexity.report.html import Document, write_html
 from taskcomplexity.report.markdown import render_markdown
 from taskcomplexity.report.methods import methods
 from taskcomplexity.report.writer import Writer
-from taskcomplexity.study import PAPER_SCALE, Study
+from taskcomplexity.study_data import PAPER_SCALE, Study
 
 
 def scale_banner(data) -> str | None:

@@ -16,7 +16,7 @@ import pandas as pd
 
 from taskcomplexity.metrics.registry import Registry
 from taskcomplexity.report.labels import TaskStyle, task_styles
-from taskcomplexity.study import Study
+from taskcomplexity.study_data import Study
 
 DIAGNOSTIC_FILES = ("null", "null_summary", "bins_sweep", "subsample_sweep", "estimators", "batches")
 VERDICT_FILES = ("verdict", "summary", "references", "correlations", "values", "samples", "welch", "information")

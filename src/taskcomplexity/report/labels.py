@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import seaborn as sns
 
-from taskcomplexity.study import Study
+from taskcomplexity.study_data import Study
 
 MARKERS = ("o", "^", "s", "D", "v", "P", "X", "*")
 """Markers of the study's groups, in the order the groups first appear."""

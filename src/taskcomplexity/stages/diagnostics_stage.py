@@ -37,10 +37,12 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
+from taskcomplexity.stages import metrics_stage, rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings, returns_shape
 from taskcomplexity.stages.rwg_stage import load_returns
+from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
 
 log = logging.getLogger(__name__)
@@ -310,3 +312,22 @@ def study_diagnostics(
                                      force=force)
 
     return each_task(STAGE, rwg_artefacts, run, progress=progress)
+
+
+def _diagnostics(work: StudyWork) -> dict:
+    plan = work.plan
+    return study_diagnostics(plan.cache, work.done[rwg_stage.STAGE], work.settings(metrics_stage.STAGE),
+                             work.settings(STAGE), registry=work.registry, force=plan.force, progress=work.progress)
+
+
+def _check_diagnostics(settings: DiagnosticsSettings, study, requests, typed) -> None:
+    episodes = min(request.settings.episodes for request in requests)
+    if episodes <= settings.knn_neighbors:
+        raise ConfigError(f"the diagnostics' k-NN estimate needs M > diagnostics.knn_neighbors = "
+                          f"{settings.knn_neighbors} episodes per policy, but M = {episodes} (rwg.episodes or "
+                          f"study.episodes): allowed M >= {settings.knn_neighbors + 1}")
+
+
+RECORD = Stage(STAGE, NUMERICS, FILES, _diagnostics, inputs=(rwg_stage.STAGE,), group="diagnostics",
+               settings=DiagnosticsSettings, check=_check_diagnostics, judged=Judged("estimators.parquet"), order=30)
+"""The diagnostics stage's record (:class:`~taskcomplexity.stages.stage.Stage`)."""

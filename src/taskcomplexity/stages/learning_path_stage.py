@@ -35,11 +35,13 @@ from taskcomplexity.metrics.learning_path import LearningPath
 from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Sample
-from taskcomplexity.stages.actor_stages import over_actor_tasks
+from taskcomplexity.stages import metrics_stage, sac_stage
+from taskcomplexity.stages.actor_stages import over_actor_tasks, trained_actors, unavailable_actors
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
 from taskcomplexity.stages.rwg_stage import EPISODES, RWGRequest
+from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 
 STAGE = "learning_path"
 NUMERICS = Numerics(version=2, modules=(*EPISODES, *ESTIMATORS, "rwg.given_policies", "rl.snapshots", "rl.layers",
@@ -199,3 +201,19 @@ def study_learning_paths(cache: Cache, requests: Mapping[str, RWGRequest], actor
 
     return over_actor_tasks(STAGE, list(requests), actors, run, episodes=episodes, progress=progress,
                             unavailable=unavailable)
+
+
+def _learning_path(work: StudyWork) -> dict:
+    plan, curves = work.plan, work.done[sac_stage.STAGE]
+    if curves is None:
+        return {}
+    return study_learning_paths(plan.cache, plan.tasks, trained_actors(curves), work.settings(STAGE),
+                                work.settings(metrics_stage.STAGE), registry=work.registry, force=plan.force,
+                                progress=work.progress, unavailable=unavailable_actors(curves))
+
+
+RECORD = Stage(STAGE, NUMERICS, FILES, _learning_path, inputs=(sac_stage.STAGE,), group="learning_path",
+               settings=LearningPathSettings, judged=Judged("learning_path.parquet"),
+               missing=("it needs the snapshots of a SAC run for each task (SAC on: `make beyond`, a fifth of the "
+                        "budgets in about an hour; `make paper`; or `sac.enabled=true`)"), order=60)
+"""The learning-path stage's record (:class:`~taskcomplexity.stages.stage.Stage`)."""

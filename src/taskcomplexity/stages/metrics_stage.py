@@ -19,7 +19,9 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import pandas as pd
 
@@ -31,9 +33,12 @@ from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.metrics.temperature import POICSearch
+from taskcomplexity.stages import rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.rwg_stage import load_returns
+from taskcomplexity.stages.stage import Judged, Stage, StudyWork
+from taskcomplexity.stages.stage_log import each_task
 
 log = logging.getLogger(__name__)
 
@@ -205,3 +210,41 @@ def returns_shape(rwg: Artefact) -> tuple[int, int]:
     """(N, M) of an RWG artefact, from its manifest (the settings its key hashes)."""
     config = rwg.manifest.get("config", {})
     return int(config["policies"]), int(config["episodes"])
+
+
+def study_metrics_of(cache: Cache, returns: Mapping[str, Artefact], labels: Mapping[str, str],
+                     settings: MetricsSettings, *, registry: Registry = DEFAULT_REGISTRY, force: bool = False,
+                     progress: bool = False) -> dict[str, Artefact]:
+    """The metrics artefact of every task's RWG artefact (study id → artefact), in order; ``labels`` name
+    each task's artefact (its manifest's label)."""
+
+    def run(name: str, rwg: Artefact, bar) -> tuple[Artefact, bool]:
+        return run_metrics_stage(cache, rwg, settings, label=labels[name], registry=registry, force=force)
+
+    return each_task(STAGE, returns, run, progress=progress)
+
+
+def _metrics(work: StudyWork) -> dict:
+    plan = work.plan
+    labels = {task_id: request.label for task_id, request in plan.tasks.items()}
+    return study_metrics_of(plan.cache, work.done[rwg_stage.STAGE], labels, work.settings(STAGE),
+                            registry=work.registry, force=plan.force, progress=work.progress)
+
+
+def _check_metrics(settings: MetricsSettings, study, requests, typed) -> None:
+    for request in requests:
+        policies = request.settings.policies
+        if settings.batches > policies // 2:
+            raise ConfigError(f"metrics.batches={settings.batches} needs at least 2 policies per batch, but N = "
+                              f"{policies} (rwg.policies or study.policies): allowed metrics.batches <= "
+                              f"{max(policies // 2, 2)}, or more policies")
+
+
+def _read_metrics(node: Any, study) -> MetricsSettings:
+    return MetricsSettings.from_config(node, getattr(study, "published", None))
+
+
+RECORD = Stage(STAGE, NUMERICS, FILES, _metrics, inputs=(rwg_stage.STAGE,), group="metrics",
+               settings=MetricsSettings, read=_read_metrics, check=_check_metrics, judged=Judged("metrics.parquet"),
+               order=20)
+"""The metrics stage's record (:class:`~taskcomplexity.stages.stage.Stage`)."""

@@ -34,11 +34,13 @@ from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.policies.mlp import sample_policies
 from taskcomplexity.seeding import derive_seed
-from taskcomplexity.stages.actor_stages import over_actor_tasks
+from taskcomplexity.stages import sac_stage
+from taskcomplexity.stages.actor_stages import over_actor_tasks, trained_actors, unavailable_actors
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS
 from taskcomplexity.stages.rwg_stage import EPISODES, RWGRequest
+from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 
 STAGE = "occupancy"
 NUMERICS = Numerics(version=1, modules=(*EPISODES, *ESTIMATORS, "rwg.occupancy", "rl.snapshots", "rl.layers",
@@ -169,3 +171,20 @@ def study_occupancy(cache: Cache, requests: Mapping[str, RWGRequest], actors: Ma
     return over_actor_tasks(STAGE, list(requests), actors, run, progress=progress,
                             episodes=lambda _: settings.policies * settings.episodes,
                             unavailable=unavailable)
+
+
+SAC_NEEDED = ("it needs a trained SAC actor for each task (SAC on: `make beyond`, a fifth of the budgets in about "
+              "an hour; `make paper`; or `sac.enabled=true`)")
+
+
+def _occupancy(work: StudyWork) -> dict:
+    plan, curves = work.plan, work.done[sac_stage.STAGE]
+    if curves is None:
+        return {}
+    return study_occupancy(plan.cache, plan.tasks, trained_actors(curves), work.settings(STAGE), registry=work.registry,
+                           force=plan.force, progress=work.progress, unavailable=unavailable_actors(curves))
+
+
+RECORD = Stage(STAGE, NUMERICS, FILES, _occupancy, inputs=(sac_stage.STAGE,), group="occupancy",
+               settings=OccupancySettings, judged=Judged("occupancy.parquet"), missing=SAC_NEEDED, order=50)
+"""The occupancy stage's record (:class:`~taskcomplexity.stages.stage.Stage`)."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -34,10 +35,12 @@ from taskcomplexity.policies.families import network_from_config
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.policies.primitives import PrimitiveSpec
 from taskcomplexity.rwg import resolve_backend
+from taskcomplexity.stages import metrics_stage, rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_stage
+from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
 
 STAGE = "primitives"
@@ -175,3 +178,28 @@ def study_primitives(cache: Cache, requests: Mapping[str, RWGRequest], metrics: 
                                     force=force, progress=bar if bar is not None else False)
 
     return each_task(STAGE, chosen, run, work=episodes, progress=progress)
+
+
+def _primitives(work: StudyWork) -> dict:
+    plan = work.plan
+    if plan.study.kind == "variants":
+        return {}
+    return study_primitives(plan.cache, plan.tasks, work.settings(metrics_stage.STAGE), work.settings(STAGE),
+                            registry=work.registry, force=plan.force, progress=work.progress)
+
+
+def _read_primitives(node: Any, study) -> PrimitivesSettings:
+    return PrimitivesSettings.from_config(node)
+
+
+def _check_primitives(settings: PrimitivesSettings, study, requests, typed) -> None:
+    if settings.enabled and study.kind != "variants":
+        for request in requests:
+            settings.request(request)  # N, M and the backend checked before any work
+
+
+RECORD = Stage(STAGE, NUMERICS, FILES, _primitives, inputs=(rwg_stage.STAGE,), group="primitives",
+               settings=PrimitivesSettings, read=_read_primitives, check=_check_primitives,
+               judged=Judged("primitives.parquet"), missing="it needs reaching-arm tasks and `primitives.enabled=true`",
+               order=70)
+"""The movement-primitives stage's record (:class:`~taskcomplexity.stages.stage.Stage`)."""

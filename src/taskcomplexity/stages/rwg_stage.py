@@ -12,6 +12,7 @@ import logging
 import os
 import shutil
 import time
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -28,6 +29,8 @@ from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
 from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.stage import Stage, StudyWork
+from taskcomplexity.stages.stage_log import each_task
 from taskcomplexity.tasks.base import Task
 
 log = logging.getLogger(__name__)
@@ -323,3 +326,27 @@ def load_returns(artefact: Artefact) -> np.ndarray:
     matrix = np.empty((n_pol, n_ep))
     matrix[frame["policy"].to_numpy(), frame["episode"].to_numpy()] = frame["return"].to_numpy()
     return matrix
+
+
+def study_returns(cache: Cache, requests: Mapping[str, RWGRequest], *, force: bool = False,
+                  progress: bool = False) -> dict[str, Artefact]:
+    """The RWG artefact of every task (study id → request), in order; with ``progress``, one bar over the
+    episodes of the tasks whose artefact is not cached yet (a cheap existence test; the stage verifies)."""
+
+    def episodes(name: str, request: RWGRequest) -> int:
+        cached = not force and cache.path(STAGE, request.key).exists()
+        return 0 if cached else request.settings.policies * request.settings.episodes
+
+    def run(name: str, request: RWGRequest, bar) -> tuple[Artefact, bool]:
+        return run_rwg_stage(cache, request, force=force, progress=bar or False)
+
+    return each_task(STAGE, requests, run, work=episodes, progress=progress)
+
+
+def _returns(work: StudyWork) -> dict:
+    plan = work.plan
+    return study_returns(plan.cache, plan.tasks, force=plan.force, progress=work.progress)
+
+
+RECORD = Stage(STAGE, NUMERICS, (RETURNS,), _returns, group="rwg", settings=RWGSettings, order=10)
+"""The RWG stage's record (:class:`~taskcomplexity.stages.stage.Stage`): the first of a study's chain."""

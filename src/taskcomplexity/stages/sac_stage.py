@@ -21,8 +21,11 @@ from typing import Any
 import pandas as pd
 
 from taskcomplexity.config import build, result_identity
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.rl.settings import SACSettings, sac_skip_reason, with_budget
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.stage import SEEDS, Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import outcome
 
 log = logging.getLogger(__name__)
@@ -207,3 +210,53 @@ def study_sac_curves(
     curves.attrs[MISSING_ATTR] = missing
     curves.attrs[ACTORS_ATTR] = actors
     return curves
+
+
+def _sac(work: StudyWork):
+    """Learning curves of every task (None for a study of variants, and when the study gives no task a SAC
+    budget and ``sac.total_steps`` is not set).
+
+    With ``sac.enabled=false`` nothing is trained: the curves the cache holds for these settings are used,
+    the tasks it lacks are listed in ``curves.attrs["sac_missing"]`` and the command that trains them in
+    ``curves.attrs["sac_command"]``. Tasks SAC skips (discrete actions) are listed in
+    ``curves.attrs["sac_skipped"]`` ({id: reason}).
+    """
+    plan, settings = work.plan, work.settings(STAGE)
+    study = plan.study
+    if study.kind == "variants":
+        return None
+    if not study.has_sac_budgets and settings.total_steps is None:
+        log.info("SAC: study %s gives no SAC budget (sac_steps) to any task, so it has no SAC reference", study.name)
+        return None
+    tasks = [(entry, request.task) for entry, request in zip(plan.entries, plan.requests, strict=True)]
+    curves = study_sac_curves(plan.cache, tasks, settings, force=plan.force, progress=work.progress,
+                              cached_only=not settings.enabled)
+    if not settings.enabled:
+        curves.attrs["sac_command"] = plan.sac_command
+        missing = curves.attrs.get(MISSING_ATTR) or []
+        if missing:
+            log.info("SAC not trained (sac.enabled=false); no cached curves for %d of %d tasks: %s",
+                     len(missing), len(tasks), plan.sac_command)
+    return curves
+
+
+def _check_sac(settings: SACSettings, study, requests, typed: list[str]) -> None:
+    if settings.entry is not None:
+        raise ConfigError(f"sac.entry={settings.entry} is read by pipelines/sac.py (one study task's SAC runs, e.g. a "
+                          "job of `make paper-jobs`); the study trains every task: drop it")
+    if not settings.enabled or study.kind == "variants":
+        return
+    if not study.has_sac_budgets and settings.total_steps is None:
+        enabled = [o for o in typed if o.partition("=")[0].lstrip("+~") == "sac.enabled"]
+        if enabled:
+            raise ConfigError(f"{enabled[-1]}: study {study.name} gives no SAC budget (sac_steps) to any task, so "
+                              "it has no SAC reference; set sac.total_steps to train SAC on it")
+        return
+    for entry, request in zip(study.tasks, requests, strict=True):
+        if sac_skip_reason(request.task) is None:
+            with_budget(settings, entry.sac_steps, task_id=entry.id)
+
+
+RECORD = Stage(STAGE, NUMERICS, (CURVES,), _sac, group="sac", settings=SACSettings, check=_check_sac,
+               judged=Judged(CURVES, CURVES, on=SEEDS), order=40)
+"""The SAC stage's record (:class:`~taskcomplexity.stages.stage.Stage`): the empirical reference."""

@@ -1,15 +1,16 @@
 """What a stage is: one record naming its settings, config group, inputs, files, numerics, how the verdict
 judges it, what to do when it is missing, and how it runs over a study (:class:`Stage`).
 
-The records of the stages before the verdict are in :mod:`taskcomplexity.stages.declared` (one entry per
-stage, in the order a study runs them); the verdict's own record (:data:`taskcomplexity.stages.verdict_stage.VERDICT`)
-reads them, and the chain (:data:`taskcomplexity.study_chain.CHAIN`) is both. Everything that lists stages reads
-the records: the plan (every stage's settings read and checked before any work), the chain (it runs each record
-in turn), the verdict (it judges every record with a :class:`Judged`, from the files that record names), the
+Each stage before the verdict declares its record in its own module (``RECORD`` in ``stages/<name>_stage.py``);
+:mod:`taskcomplexity.stages.declared` finds them and orders them as a study runs them; the verdict's own
+record (:data:`taskcomplexity.stages.verdict_stage.VERDICT`) reads them, and the chain
+(:data:`taskcomplexity.study.chain.CHAIN`) is both. Everything that lists stages reads the records: the plan
+(every stage's settings read and checked before any work), the chain (it runs each record in turn), the
+verdict (it judges every record with a :class:`Judged`, from the files that record names), the
 ``rwg`` command (it refuses the other stages' groups) and the report (what to say when a stage is missing).
 
 Why the records sit here, in ``stages/``, and the layers below read no table of stages: a record holds its
-run function, so it imports the stage's module, and the modules below the stages (the metric registry,
+run function, so it lives with the stage's module, and the modules below the stages (the metric registry,
 the verdict's gathering, the report) must not import upwards. Those lower modules take what they need of
 the records as arguments instead (the files a verdict gathers, the sentence a report says when a stage is
 missing), and the metric registry checks only the form of a metric's stage name: that the name is a
@@ -61,7 +62,7 @@ class StudyWork:
     ----------
     plan : StudyPlan
         The study, its tasks' RWG requests, every stage's typed settings, the cache, ``force``
-        (:class:`taskcomplexity.plan.StudyPlan`).
+        (:class:`taskcomplexity.study.plan.StudyPlan`).
     registry : Registry
         The metrics estimated and judged.
     done : dict of stage name to output
@@ -115,6 +116,9 @@ class Stage:
     missing : str
         For a stage beyond the paper: what it needs, said by the report when none of its values was computed
         ("" for the paper's own stages).
+    order : int
+        Its place in a study's chain: the stages run, and the verdict and the report list them, in this order
+        (each after the stages it reads; :func:`taskcomplexity.stages.declared.discover` checks it).
     """
 
     name: str
@@ -128,6 +132,7 @@ class Stage:
     check: Callable[[Any, Any, tuple, list[str]], None] | None = None
     judged: Judged | None = None
     missing: str = ""
+    order: int = 0
 
     def __post_init__(self) -> None:
         if (self.group is None) != (self.settings is None):

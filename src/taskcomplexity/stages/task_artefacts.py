@@ -10,11 +10,8 @@ import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.metrics_stage import STAGE as METRICS_STAGE
-from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage
-from taskcomplexity.stages.rwg_stage import STAGE as RWG_STAGE
-from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
-from taskcomplexity.stages.stage_log import each_task
+from taskcomplexity.stages.metrics_stage import MetricsSettings, study_metrics_of
+from taskcomplexity.stages.rwg_stage import RWGRequest, study_returns
 
 log = logging.getLogger(__name__)
 
@@ -30,33 +27,6 @@ class TaskMetrics:
 
     def table(self, name: str) -> pd.DataFrame:
         return pd.read_parquet(self.metrics.file(name))
-
-
-def study_returns(cache: Cache, requests: Mapping[str, RWGRequest], *, force: bool = False,
-                  progress: bool = False) -> dict[str, Artefact]:
-    """The RWG artefact of every task (study id → request), in order; with ``progress``, one bar over the
-    episodes of the tasks whose artefact is not cached yet (a cheap existence test; the stage verifies)."""
-
-    def episodes(name: str, request: RWGRequest) -> int:
-        cached = not force and cache.path(RWG_STAGE, request.key).exists()
-        return 0 if cached else request.settings.policies * request.settings.episodes
-
-    def run(name: str, request: RWGRequest, bar) -> tuple[Artefact, bool]:
-        return run_rwg_stage(cache, request, force=force, progress=bar or False)
-
-    return each_task(RWG_STAGE, requests, run, work=episodes, progress=progress)
-
-
-def study_metrics_of(cache: Cache, returns: Mapping[str, Artefact], labels: Mapping[str, str],
-                     settings: MetricsSettings, *, registry: Registry = DEFAULT_REGISTRY, force: bool = False,
-                     progress: bool = False) -> dict[str, Artefact]:
-    """The metrics artefact of every task's RWG artefact (study id → artefact), in order; ``labels`` name
-    each task's artefact (its manifest's label)."""
-
-    def run(name: str, rwg: Artefact, bar) -> tuple[Artefact, bool]:
-        return run_metrics_stage(cache, rwg, settings, label=labels[name], registry=registry, force=force)
-
-    return each_task(METRICS_STAGE, returns, run, progress=progress)
 
 
 def study_metrics(

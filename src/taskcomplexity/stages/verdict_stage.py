@@ -45,7 +45,7 @@ from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import STAGE as METRICS
 from taskcomplexity.stages.stage import POLICIES, SEEDS, Stage, StudyWork
 from taskcomplexity.stages.stage_log import StageLog, outcome
-from taskcomplexity.study import Study
+from taskcomplexity.study_data import Study
 from taskcomplexity.verdict import (
     gather,
     gather_details,

@@ -4,7 +4,7 @@
 the two tasks as known and whether the difference is significant; per metric, the counts of
 outcomes and Kendall's τ against each known total order (correlations with reference scores:
 :mod:`taskcomplexity.verdict.references`). The relations and orders are study data
-(:class:`taskcomplexity.study.Study`); directions come from the metric registry.
+(:class:`taskcomplexity.study_data.Study`); directions come from the metric registry.
 
 Outcomes of one (metric, relation):
 
@@ -34,7 +34,7 @@ import scipy.stats
 from taskcomplexity.metrics._validation import check_fraction
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL, policies_to_resolve, welch_matrix, welch_test
 from taskcomplexity.metrics.registry import Registry
-from taskcomplexity.study import Relation
+from taskcomplexity.study_data import Relation
 from taskcomplexity.verdict.information import DIFFERENCE_NULL_SHARE, null_share_of_difference
 
 OUTCOMES = ("agree", "contradict", "not significant", "uninformative", "undefined")

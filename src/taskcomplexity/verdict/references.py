@@ -1,6 +1,6 @@
 """Reference scores of a study's tasks, and the correlation of every metric with them.
 
-A study may carry two kinds of reference data (:class:`taskcomplexity.study.Study`):
+A study may carry two kinds of reference data (:class:`taskcomplexity.study_data.Study`):
 
 - ``reference``: a score per task, higher = easier, used as given;
 - ``algorithm_scores``: a learning algorithm's best and average return per task (A_max, A_avg), from
@@ -30,7 +30,7 @@ import pandas as pd
 import scipy.stats
 
 from taskcomplexity.metrics.registry import Registry
-from taskcomplexity.study import Study
+from taskcomplexity.study_data import Study
 
 
 @dataclass(frozen=True)

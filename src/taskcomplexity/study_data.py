@@ -5,6 +5,9 @@ Studies live in ``taskcomplexity/conf/study/*.yaml`` (or a researcher's own dire
 verdict judges the study's relations, the report takes its labels, table order and colours from
 here. Nothing about a particular task is hard-coded elsewhere.
 
+This module stands below the stages, the verdict and the report, which read it; the study's plan, chain and
+run (:mod:`taskcomplexity.study`) stand above them.
+
 Example::
 
     name: mine
@@ -197,8 +200,8 @@ class Study:
 
 
 def study_from_config(node: Any) -> Study:
-    """Build and check a :class:`Study` from its config node (``cfg.study``)."""
-    node = _plain(node)
+    """Build and check a :class:`Study` from its config as plain data (``cfg.study`` read into dicts and lists,
+    :func:`taskcomplexity.study.plan.study_from`)."""
     if not isinstance(node, Mapping):
         raise ConfigError(f"study must be a mapping (name, tasks, relations, …), got {node!r}")
     allowed = {"name", "tasks", "relations", "orders", "reference", "algorithm_scores", "network", "prior", "kind",
@@ -288,7 +291,7 @@ def load_study_file(path) -> Study:
     """A study YAML file (e.g. ``taskcomplexity/conf/study/seven_tasks.yaml``) as a :class:`Study`."""
     from omegaconf import OmegaConf
 
-    return study_from_config(OmegaConf.load(path))
+    return study_from_config(OmegaConf.to_container(OmegaConf.load(path), resolve=True))
 
 
 def _task_entry(entry: Any, i: int) -> StudyTask:
@@ -346,9 +349,3 @@ def _relation(node: Any, i: int, ids: list[str]) -> Relation:
 def _known(where: str, task_id: Any, ids: list[str]) -> None:
     if task_id not in ids:
         raise ConfigError(f"{where}={task_id} is not a task of the study (its ids: {', '.join(ids)})")
-
-
-def _plain(node: Any) -> Any:
-    from taskcomplexity.config import plain
-
-    return plain(node)

@@ -1,9 +1,11 @@
-"""The tasks of a composed config and their RWG requests: one task's (:func:`rwg_request_from_config`, for the
-single-stage commands), or every study entry's (:func:`study_requests`), each entry composed through Hydra's
-compose API: its own choices (task, arm, reward, prior, network, env id, …) over the command line's overrides
-and the study's policy family, at the N and M that apply to every entry (:func:`study_scale`).
+"""Every study entry composed through Hydra, and its RWG request (:func:`entry_requests`): the entry's own
+choices (task, arm, reward, prior, network, env id, …) over the command line's overrides and the study's policy
+family, at the N and M that apply to every entry (:func:`study_scale`).
 
-Read when the configuration is read (:mod:`taskcomplexity.plan`, :mod:`taskcomplexity.commands`).
+The one module below the plan that uses Hydra: the plan (:func:`taskcomplexity.study.plan.read_plan`) reads the
+composed config and hands down plain data (the study, the RWG settings, :class:`EntryBase`, the typed
+overrides); each entry's own config is composed here, from the packaged configs, and read into its request
+(:func:`request_of`).
 """
 
 from __future__ import annotations
@@ -11,15 +13,17 @@ from __future__ import annotations
 import dataclasses
 import logging
 import sys
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from omegaconf import OmegaConf
 
-from taskcomplexity.cli import CONF_DIR, search_dirs, user_overrides
+from taskcomplexity.cli import CONF_DIR, search_dirs
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study import Study, StudyTask, study_from_config
+from taskcomplexity.study_data import Study, StudyTask
 from taskcomplexity.tasks.from_config import task_from_config
 
 log = logging.getLogger("taskcomplexity")
@@ -81,23 +85,44 @@ def _compose(overrides: list[str], where: str):
         raise ConfigError(f"{where}: {message}") from err
 
 
-def entry_config(cfg: Any, entry, typed: list[str], where: str, family: dict[str, str] | None = None):
+@dataclass(frozen=True)
+class EntryBase:
+    """What every study entry takes from the study's own composed config, as plain data (read by the plan,
+    :func:`taskcomplexity.study.plan.entry_base`): what neither the entry nor the study's family chooses.
+
+    Attributes
+    ----------
+    backend : str
+        The RWG backend (``auto``, or one of the backends).
+    max_steps : int
+        The reaching arms' episode length.
+    prior, network : mapping
+        The ``prior`` and ``network`` groups as composed (an entry or the study's family may choose others).
+    """
+
+    backend: str
+    max_steps: Any
+    prior: Mapping[str, Any]
+    network: Mapping[str, Any]
+
+
+def entry_config(base: EntryBase, entry, typed: list[str], where: str, family: dict[str, str] | None = None):
     """The composed config of one study entry: ``typed`` overrides, the study's policy ``family``
     (:func:`study_family`), then the entry's own choices.
 
     What neither the entry nor the study's family chooses (backend, the reaching arms' max_steps,
-    prior and network) comes from the study's own composed config ``cfg``, so values set there, by
-    overrides or in code, reach every task.
+    prior and network) comes from ``base``, the study's own composed config as plain data, so values set
+    there, by overrides or in code, reach every task.
     """
     from omegaconf import open_dict
 
     family = family or {}
     node = _compose(_entry_overrides(entry, typed, where, family), where)
     with open_dict(node):
-        node.backend, node.max_steps = cfg.backend, cfg.max_steps
+        node.backend, node.max_steps = base.backend, base.max_steps
         for group in ("prior", "network"):
             if group not in entry.selection and group not in family:
-                node[group] = cfg[group]
+                node[group] = dict(getattr(base, group))
         for key in ("env_id", "kwargs", "max_steps"):
             if key in entry.selection:
                 node.task[key] = entry.selection[key]
@@ -119,8 +144,9 @@ def _rwg_group_value(key: str, typed: list[str]) -> Any:
     return None
 
 
-def study_scale(cfg: Any, study, typed: list[str]) -> dict[str, int]:
-    """N and M that replace ``rwg.policies``/``rwg.episodes`` for every entry of ``study`` (logged).
+def study_scale(settings, study, typed: list[str]) -> dict[str, int]:
+    """N and M that replace ``rwg.policies``/``rwg.episodes`` (as ``settings``, the RWG settings, give them) for
+    every entry of ``study`` (logged).
 
     A study file may give its own N, M (``study.policies``, ``study.episodes``: classic_control's
     1000 × 1000); they apply unless ``rwg.policies``/``rwg.episodes`` is set explicitly, typed on the
@@ -134,7 +160,7 @@ def study_scale(cfg: Any, study, typed: list[str]) -> dict[str, int]:
         own = getattr(study, key)
         if own is None:
             continue
-        given = cfg.rwg[key]
+        given = getattr(settings, key)
         if f"study.{key}" in typed_keys:
             if f"rwg.{key}" in typed_keys and given != own:
                 raise ConfigError(f"{typed_keys[f'rwg.{key}']} and {typed_keys[f'study.{key}']} disagree: give one "
@@ -150,21 +176,16 @@ def study_scale(cfg: Any, study, typed: list[str]) -> dict[str, int]:
     return scale
 
 
-def study_requests(cfg: Any, study: Study | None = None, settings=None) -> list[tuple[StudyTask, RWGRequest]]:
+def entry_requests(study: Study, settings, base: EntryBase, typed: list[str]) -> list[tuple[StudyTask, RWGRequest]]:
     """(StudyTask, RWGRequest) for every entry of the study, in study order.
 
     Each entry is composed with Hydra's compose API from the packaged configs (and the user's search
     path): the entry's own choices (``task``, ``env_id``, ``kwargs``, ``max_steps``, ``arm``,
-    ``reward``, ``prior``, ``network``) over the command line's overrides, so an override such as
-    ``arm.links.0.mass=7`` reaches every study task. ``settings``: the RWG settings (default: read from
-    ``cfg.rwg``); N and M of every entry: :func:`~taskcomplexity.compose.study_scale`.
+    ``reward``, ``prior``, ``network``) over the command line's overrides ``typed``, so an override such as
+    ``arm.links.0.mass=7`` reaches every study task; what no entry chooses comes from ``base``. ``settings``:
+    the RWG settings; N and M of every entry: :func:`study_scale`.
     """
-    from taskcomplexity.rwg import RWGSettings, resolve_backend
-
-    study = study or study_from_config(cfg.study)
-    settings = settings if settings is not None else build(RWGSettings, cfg.rwg, "rwg")
-    typed = user_overrides()
-    overrides = study_scale(cfg, study, typed)
+    overrides = study_scale(settings, study, typed)
     if overrides:
         settings = dataclasses.replace(settings, **overrides)
         settings.validate()
@@ -176,48 +197,20 @@ def study_requests(cfg: Any, study: Study | None = None, settings=None) -> list[
             raise ConfigError(f"study.{group}={option} is not a known {group} option (allowed: {', '.join(allowed)})")
     out = []
     for i, entry in enumerate(study.tasks):
-        node = entry_config(cfg, entry, typed, f"study.tasks[{i}]", family)
-        task = task_from_config(node)
-        network, prior = sampler_from_config(node)
-        backend = resolve_backend(task, str(node.backend), network)
-        out.append((entry, RWGRequest(task, network, prior, settings, backend)))
+        node = entry_config(base, entry, typed, f"study.tasks[{i}]", family)
+        out.append((entry, request_of(node, settings)))
     return out
 
 
-def sampler_from_config(cfg: Any):
-    """(the network's spec, of its family, and the PriorSpec) of a composed config."""
+def request_of(node: Any, settings, task=None) -> RWGRequest:
+    """The RWG request of one composed config (a study entry's, or a single-stage command's): its task (``task``
+    if given), its policy family and prior, ``settings``, and its backend (``auto`` resolved)."""
     from taskcomplexity.policies.families import network_from_config
     from taskcomplexity.policies.mlp import PriorSpec
+    from taskcomplexity.rwg import resolve_backend
 
-    return network_from_config(cfg.network), build(PriorSpec, cfg.prior, "prior")
-
-
-def rwg_request_from_config(cfg: Any, task=None) -> RWGRequest:
-    """The :class:`RWGRequest` of a composed config (for ``task`` if given); ``backend=auto`` resolved."""
-    from taskcomplexity.rwg import AUTO, BACKENDS, RWGSettings, resolve_backend
-
-    if str(cfg.backend) not in (AUTO, *BACKENDS):
-        raise ConfigError(f"backend must be one of {[AUTO, *BACKENDS]}, got {cfg.backend!r}")
-    if task is None:
-        task = task_from_config(cfg)
-        refuse_unread_overrides(task, user_overrides())
-    network, prior = sampler_from_config(cfg)
-    settings = build(RWGSettings, cfg.rwg, "rwg")
-    return RWGRequest(task, network, prior, settings, resolve_backend(task, str(cfg.backend), network))
+    task = task_from_config(node) if task is None else task
+    network, prior = network_from_config(node.network), build(PriorSpec, node.prior, "prior")
+    return RWGRequest(task, network, prior, settings, resolve_backend(task, str(node.backend), network))
 
 
-REACHING_ONLY = ("arm", "reward", "max_steps", "rwg.contacts")
-"""Keys only the reaching arms read."""
-
-
-def refuse_unread_overrides(task, typed: list[str]) -> None:
-    """Refuse an override that the composed task would ignore (e.g. ``arm=…`` with ``task=gym``)."""
-    from taskcomplexity.tasks.spec import TaskSpec
-
-    if isinstance(task, TaskSpec):
-        return
-    for override in typed:
-        key = override.partition("=")[0].lstrip("+~")
-        if any(key == k or key.startswith(f"{k}.") for k in REACHING_ONLY):
-            raise ConfigError(f"{override} is not read by task {task.task_id} (only the reaching arms read "
-                              f"{', '.join(REACHING_ONLY)}; use task.max_steps or task.kwargs for a gymnasium task)")

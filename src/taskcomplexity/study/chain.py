@@ -3,8 +3,8 @@
 The chain is the declarations (:data:`CHAIN`): RWG → metrics → diagnostics → SAC → occupancy → learning
 path → primitives → verdict, each run over the study by its record's ``run``, reading the plan and what the
 stages before it returned. The report reads what these produce (:func:`study_artefacts`); it is written by
-:func:`taskcomplexity.study_run.run_study`, so that the chain never imports the report. The plan is read
-from the config above it (:func:`taskcomplexity.plan.read_plan`): nothing here reads the config.
+:func:`taskcomplexity.study.run.run_study`, so that the chain never imports the report. The plan is read
+from the config above it (:func:`taskcomplexity.study.plan.read_plan`): nothing here reads the config.
 """
 
 from __future__ import annotations
@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.plan import StudyPlan
 from taskcomplexity.stages.ahead import computing_ahead
 from taskcomplexity.stages.cache import Artefact
 from taskcomplexity.stages.declared import STAGES
@@ -25,7 +24,8 @@ from taskcomplexity.stages.sac_stage import STAGE as SAC
 from taskcomplexity.stages.stage import StudyWork
 from taskcomplexity.stages.task_artefacts import TaskMetrics, task_metrics
 from taskcomplexity.stages.verdict_stage import VERDICT
-from taskcomplexity.study import Study
+from taskcomplexity.study.plan import StudyPlan
+from taskcomplexity.study_data import Study
 
 CHAIN = (*STAGES, VERDICT)
 """Every stage of a study, in the order it runs them: the declared stages, then the verdict that judges them."""

@@ -1,5 +1,5 @@
-"""The whole chain of a study from a composed config: its plan, read once (:mod:`taskcomplexity.plan`), its
-artefacts (:mod:`taskcomplexity.study_chain`), then its report (:mod:`taskcomplexity.report`). The only
+"""The whole chain of a study from a composed config: its plan, read once (:mod:`taskcomplexity.study.plan`), its
+artefacts (:mod:`taskcomplexity.study.chain`), then its report (:mod:`taskcomplexity.report`). The only
 module that joins the chain and the report, so that neither imports the other."""
 
 from __future__ import annotations
@@ -11,26 +11,12 @@ from pathlib import Path
 from typing import Any
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.plan import StudyPlan, read_plan
 from taskcomplexity.report.build import build_report
 from taskcomplexity.stages.declared import STAGES
-from taskcomplexity.study_chain import StudyArtefacts, study_artefacts
+from taskcomplexity.study.chain import study_artefacts
+from taskcomplexity.study.plan import StudyPlan, read_plan
 
 log = logging.getLogger(__name__)
-
-
-def write_report(artefacts: StudyArtefacts, out_dir: Path, title: str, *, registry: Registry = DEFAULT_REGISTRY
-                 ) -> Path:
-    """The report of a study's artefacts under ``out_dir``; returns its ``index.html``."""
-    study, results = artefacts.study, artefacts.results
-    ablation = None
-    if study.kind == "variants":
-        ablation = {f"{study.label(results[0].task_id)}: prior and network variants":
-                    {study.label(r.task_id): r for r in results}}
-    return build_report(results, study=study, verdict=artefacts.verdict, diagnostics=artefacts.diagnostics,
-                        sac_curves=artefacts.sac_curves, out_dir=out_dir, title=title, ablation=ablation,
-                        alpha=artefacts.alpha, registry=registry, further=artefacts.further,
-                        missing={stage.name: stage.missing for stage in STAGES if stage.missing})
 
 
 def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
@@ -54,7 +40,15 @@ def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, started:
     name = artefacts.name
     job = plan.job_dir
     out_dir = job / "report" if job is not None else plan.outputs / "reports" / name
-    index = write_report(artefacts, out_dir, plan.title, registry=registry)
+    study, results = artefacts.study, artefacts.results
+    ablation = None
+    if study.kind == "variants":
+        ablation = {f"{study.label(results[0].task_id)}: prior and network variants":
+                    {study.label(r.task_id): r for r in results}}
+    index = build_report(results, study=study, verdict=artefacts.verdict, diagnostics=artefacts.diagnostics,
+                         sac_curves=artefacts.sac_curves, out_dir=out_dir, title=plan.title, ablation=ablation,
+                         alpha=artefacts.alpha, registry=registry, further=artefacts.further,
+                         missing={stage.name: stage.missing for stage in STAGES if stage.missing})
     if job is not None:
         from taskcomplexity.report.labels import task_styles
         from taskcomplexity.report.sweep import JOB_FILE
