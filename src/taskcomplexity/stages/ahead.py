@@ -115,7 +115,7 @@ def _log_outcomes(done: Any, names: tuple[str, ...]) -> None:
 def _work(plan: Any, names: tuple[str, ...], rwg: str, done: Any) -> None:
     """The process: lowest priority, Ctrl-C left to the chain (which ends this process), then :func:`compute_ahead`."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    with contextlib.suppress(OSError):
+    with contextlib.suppress(OSError, AttributeError):  # os.nice: POSIX only
         os.nice(NICENESS)
     from taskcomplexity.tasks.step_kernel import prepare_kernels
 
