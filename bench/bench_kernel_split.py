@@ -22,6 +22,8 @@ Floors, measured on this machine in the same run: forward, MACs per step over th
 at the forward pass's shapes (one BLAS thread, 256 environments per product); physics and obs/reward,
 the same functions on 256 contiguous environments in a tight loop (no packing, no episode ends). The
 contact model has no floor here (its work depends on how many physics steps come near the block).
+Where a part is above 1.5× its floor the bench says why; for the forward pass it times each layer alone (on a
+policy's first observations, so that the output's tanh sees realistic values) beside matmul at that layer's shape.
 """
 
 from __future__ import annotations
@@ -159,6 +161,54 @@ def _isolated(arm, p, zone, state, dt, substeps, n, repeats, which):
     return total
 
 
+@numba.njit(cache=True)
+def _time_layer(w, off, fan_in, fan_out, src, dst, n, reps, activation):
+    """Cycles of ``reps`` passes of one layer of the kernel's forward pass (activation 0 none, 1 ReLU, 2 tanh)."""
+    start = _cycles()
+    for _ in range(reps):
+        rollout_kernel._dense(w, off, fan_in, fan_out, src, dst, n)
+        if activation == 1:
+            for j in range(fan_out):
+                row = dst[j]
+                for e in range(n):
+                    row[e] = max(row[e], 0.0)
+        elif activation == 2:
+            for j in range(fan_out):
+                row = dst[j]
+                for e in range(n):
+                    row[e] = np.tanh(row[e])
+    return _cycles() - start
+
+
+def forward_by_layer(weights, layer_sizes, observations, rate: float, repeats: int = 5) -> list[dict]:
+    """Each layer of one policy's forward pass alone, on the observations given (one column each, ≤ 256).
+
+    Per layer: ns per environment of the kernel's products, of its activation (the output's tanh: the C
+    library's, per value), MACs, and NumPy's matmul rate at the same shape. The inputs are the policy's own
+    activations, so the output's tanh sees the values it sees in a rollout (its cost depends on them).
+    """
+    n = observations.shape[0]
+    columns = row_length(n)
+    buffers = [np.zeros((int(size), columns)) for size in layer_sizes]
+    buffers[0][:, :n] = observations.T
+    layers, off, out = len(layer_sizes) - 1, 0, []
+    for k in range(layers):
+        fan_in, fan_out = int(layer_sizes[k]), int(layer_sizes[k + 1])
+        activation = 1 if k < layers - 1 else 2
+        src, dst = buffers[k], buffers[k + 1]
+        _time_layer(weights, off, fan_in, fan_out, src, dst, n, 1, activation)  # compile; dst = this layer's output
+        reps = max(1, int(2e6 // (fan_in * fan_out * n)))
+        products = min(_time_layer(weights, off, fan_in, fan_out, src, dst.copy(), n, reps, 0) for _ in range(repeats))
+        whole = min(_time_layer(weights, off, fan_in, fan_out, src, dst.copy(), n, reps, activation)
+                    for _ in range(repeats))
+        ns = products / rate / (reps * n) * 1e9
+        out.append(dict(shape=f"{fan_in}→{fan_out}", macs=fan_in * fan_out, products=ns,
+                        activation=max(whole / rate / (reps * n) * 1e9 - ns, 0.0), gemm=gemm_rate([fan_in, fan_out]),
+                        tanh=activation == 2))
+        off += fan_in * fan_out
+    return out
+
+
 def cycles_per_second() -> float:
     """The cycle counter's rate, against the wall clock over 0.2 s."""
     c0, t0 = _cycles_now(), time.perf_counter()
@@ -280,6 +330,8 @@ def main() -> None:
             macs = int((layer_sizes[:-1] * layer_sizes[1:]).sum())
             floors[arm] = dict(gemm=gemm, own=own, macs=macs, forward=macs / gemm * 1e9)
             floors[arm]["physics"], floors[arm]["obs/reward"] = isolated(task, rate)
+            first, _ = chunk(task, 1, 256)
+            floors[arm]["layers"] = forward_by_layer(weights[0], layer_sizes, first._state["observation"], rate)
         measure(task, 2, 8)  # compile
         runs = [measure(task, args.policies, args.episodes) for _ in range(args.repeats)]
         real = statistics.median(r[0] for r in runs)
@@ -295,12 +347,18 @@ def main() -> None:
                 ratios.append(f"{name} {value:.0f}/{floor[name]:.0f} = {value / floor[name]:.2f}×")
         print(f"{'':<26}measured/floor: " + ", ".join(ratios))
         if parts[1] > 1.5 * floor["forward"]:
-            print(f"{'':<26}forward: each column's sums stay in input order (bit-identical returns), 4 outputs × "
-                  "4 inputs per pass over the environments, each pass loading and storing its 4 partial sums where "
-                  "a GEMM keeps them in registers: the kernel's forward alone on 256 environments runs "
-                  f"{floor['own'] / 1e9:.1f} GMAC/s against matmul's {floor['gemm'] / 1e9:.1f}; in the rollout a "
-                  f"block holds {active:.0f} active environments on average, and each step adds its "
-                  "copies of the observations in and the actions out")
+            share = [layer["macs"] / layer["products"] * 1e9 / layer["gemm"] for layer in floor["layers"]]
+            layers = ", ".join(
+                f"{layer['shape']} {layer['products']:.0f} ns ({fraction:.2f})"
+                + (f" + tanh {layer['activation']:.0f} ns" if layer["tanh"] else "")
+                for layer, fraction in zip(floor["layers"], share, strict=True))
+            print(f"{'':<26}forward: each column's sums stay in input order (bit-identical returns). By layer, alone "
+                  "on 256 environments of a policy's first observations, ns per environment (and the share of "
+                  f"matmul's rate at the layer's shape): {layers}; the tanh is the C library's, scalar, one call per "
+                  "action (a vectorised tanh would not give its bits). Passes of 8 inputs instead of 4 and fused "
+                  "multiply-adds were tried side by side (no faster). In the rollout a block holds "
+                  f"{active:.0f} active environments on average, and each step adds its copies of the observations "
+                  "in and the actions out")
         if parts[2] > 1.5 * floor["physics"]:
             print(f"{'':<26}physics: in the rollout a block holds {active:.0f} active environments on average "
                   "(the floor: 256)")
