@@ -14,12 +14,13 @@ CHANGED = {  # a valid different value of every field
     "tau": 0.01, "loss_function": "smooth_l1", "batch_size": 32, "buffer_size": 5000, "updates_per_step": 2,
     "collect_steps": 20, "warmup_steps": 200, "eval_every": 200, "eval_episodes": 3, "total_steps": 4000,
     "budget_fraction": 0.5, "seeds": (0, 1), "train_seeds_together": False, "her": True, "her_ratio": 0.5, "her_strategy": "final",
-    "checkpoint_every": 400, "num_threads": 2, "entry": "two_link-sparse",
+    "checkpoint_every": 400, "num_threads": 2, "device": "cpu", "entry": "two_link-sparse",
 }
 # enabled: read by the study only, it decides whether SAC runs, not what it computes; budget_fraction:
 # with_budget resolves it into total_steps, which is hashed (test_settings.py checks the resolution);
-# entry: which study task pipelines/sac.py trains, whose runs the study must find under its own keys.
-NOT_A_RESULT = {"enabled", "budget_fraction", "entry"}
+# entry: which study task pipelines/sac.py trains, whose runs the study must find under its own keys;
+# device: auto and cpu are both the CPU here (the resolved device enters the key off the CPU: test below).
+NOT_A_RESULT = {"enabled", "budget_fraction", "entry", "device"}
 
 
 def key(settings: SACSettings) -> str:
@@ -39,3 +40,15 @@ def test_checkpoint_every_and_num_threads_are_in_the_key():
     base = SACSettings(total_steps=2000)
     assert key(dataclasses.replace(base, checkpoint_every=100)) != key(dataclasses.replace(base, checkpoint_every=300))
     assert key(dataclasses.replace(base, num_threads=1)) != key(dataclasses.replace(base, num_threads=2))
+
+
+def test_the_device_enters_the_key_only_off_the_cpu(monkeypatch):
+    import torch
+
+    base = SACSettings(total_steps=2000)
+    on_cpu = key(base)
+    assert key(dataclasses.replace(base, device="cpu")) == on_cpu  # every CPU curve keeps its key
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)  # a machine with a GPU: auto is CUDA there
+    assert key(base) != on_cpu
+    assert key(dataclasses.replace(base, device="cuda")) == key(base)
+    assert key(dataclasses.replace(base, device="cpu")) == on_cpu

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import pytest
+import torch
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build, plain
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import SACSettings, protocol_variants, with_budget
+from taskcomplexity.rl.settings import resolve_device
 from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task, preset_tasks
@@ -135,6 +137,7 @@ def test_smoke_makes_gradient_updates_within_a_few_hundred_steps(compose_config)
         ("sac.total_steps=1234", r"sac\.total_steps must be a multiple of sac\.collect_steps=10, got 1234"),
         ("sac.hidden_sizes=[256,0]", r"sac\.hidden_sizes must be a non-empty list of integers >= 1"),
         ("+sac.learning_rate=0.1", r"sac\.learning_rate is not a known key \(allowed: "),
+        ("sac.device=gpu", r"sac\.device must be one of \['auto', 'cpu', 'cuda'\], got 'gpu'"),
     ],
 )
 def test_invalid_values_fail_with_one_line_naming_the_key(compose_config, override, message):
@@ -164,3 +167,12 @@ def test_a_gym_task_gets_sac_only_and_no_reward_is_read():
     # GymTask has no ``reward`` attribute: touching it would raise AttributeError
     assert not hasattr(GymTask("Pendulum-v1"), "reward")
     assert [v.variant for v in protocol_variants(GymTask("Pendulum-v1"), SACSettings(her=True))] == ["sac"]
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a CUDA device")
+def test_cuda_where_torch_sees_no_device_is_refused_in_one_line_and_auto_is_the_cpu(compose_config):
+    with pytest.raises(ConfigError, match=r"sac\.device=cuda, but torch .* sees no CUDA device .*allowed here: auto, "
+                                          r"cpu") as err:
+        build(SACSettings, compose_config("sac.device=cuda").sac, "sac")
+    assert "\n" not in str(err.value)
+    assert resolve_device(build(SACSettings, compose_config().sac, "sac").device).type == "cpu"

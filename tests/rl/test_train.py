@@ -133,3 +133,15 @@ def test_seeds_trained_one_by_one_are_each_the_one_seed_run(tmp_path):
     alone = train_sac(TASK, tiny, seed=1)
     columns = [c for c in CURVE_COLUMNS if c != "time/seconds"]
     pd.testing.assert_frame_equal(curves[curves["seed"] == 1][columns].reset_index(drop=True), alone[columns])
+
+
+def test_a_run_on_the_cpu_by_name_is_the_default_run_and_a_checkpoint_serves_both(tmp_path):
+    tiny = SACSettings(total_steps=60, warmup_steps=20, eval_every=30, eval_episodes=1, checkpoint_every=60,
+                       seeds=(0,), hidden_sizes=(16, 16))
+    default = train_sac(TASK, tiny, seed=0, checkpoint_dir=tmp_path)
+    named = train_sac(TASK, dataclasses.replace(tiny, device="cpu"), seed=0)
+    columns = [c for c in CURVE_COLUMNS if c != "time/seconds"]
+    pd.testing.assert_frame_equal(named[columns], default[columns])
+    # the finished checkpoint of the default run is this run's too: the device is no part of a CPU run's identity
+    again = train_sac(TASK, dataclasses.replace(tiny, device="cpu"), seed=0, checkpoint_dir=tmp_path)
+    pd.testing.assert_frame_equal(again, default)

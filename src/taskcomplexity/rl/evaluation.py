@@ -47,6 +47,7 @@ def evaluate(
     goal_conditioned: bool,
     success_key: str | None = None,
     solved_return: float | None = None,
+    device: torch.device | str = "cpu",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Run ``episodes`` episodes per seed with the mean action, all at once.
 
@@ -63,6 +64,8 @@ def evaluate(
         The info key the env reports success in (read into the tensordicts by ``make_env``).
     solved_return : float, optional
         For a task whose env reports no success: an episode whose return reaches it is solved.
+    device : torch.device or str, default 'cpu'
+        Where ``policy`` lives; the environments step on the CPU.
 
     Returns
     -------
@@ -85,11 +88,15 @@ def evaluate(
     returns = torch.zeros(size)
     success = torch.zeros(size, dtype=torch.bool)
     alive = torch.ones(size, dtype=torch.bool)
+    on_device = torch.device(device).type != "cpu"
     with torch.random.fork_rng(devices=[]), torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
         td = env.reset(seed=evaluation_seeds(seeds, episodes))
         for _ in range(task.max_steps):
-            action = policy(td.reshape(num_seeds, episodes).copy()).get("action")
-            td.set("action", action.reshape(size, -1))
+            observed = td.reshape(num_seeds, episodes).copy()
+            if on_device:
+                observed = observed.to(device)
+            action = policy(observed).get("action")
+            td.set("action", action.reshape(size, -1).cpu())
             stepped, td = env.step_and_maybe_reset(td)
             nxt = stepped.get("next")
             returns += torch.where(alive, nxt.get("reward").squeeze(-1), 0.0)

@@ -163,6 +163,7 @@ def make_actor_critic(
     hidden_sizes: Sequence[int],
     seeds: Sequence[int],
     goal_conditioned: bool,
+    device: torch.device | str = "cpu",
 ) -> tuple[ProbabilisticActor, list[TensorDictSequential]]:
     """A tanh-Normal actor and two Q-networks, each holding one parameter set per seed.
 
@@ -178,6 +179,9 @@ def make_actor_critic(
     goal_conditioned : bool
         Read ``observation`` and ``desired_goal`` (HER) instead of the task ``observation``; the task
         observation is rebuilt from them, so both variants see the same inputs.
+    device : torch.device or str, default 'cpu'
+        Where the networks live; they are initialised on the CPU first, so every device starts a seed from the
+        same parameters.
 
     Returns
     -------
@@ -212,6 +216,8 @@ def make_actor_critic(
         reset_seed_parameters(mlp, [derive_seed(seed, "critic", index) for seed in seeds])
         inputs, input_key = _input_modules(task, goal_conditioned)
         critics.append(TensorDictSequential(*inputs, ValueOperator(mlp, in_keys=[input_key, "action"])))
+    if torch.device(device).type != "cpu":
+        actor, critics = actor.to(device), [critic.to(device) for critic in critics]
     return actor, critics
 
 
@@ -262,12 +268,18 @@ def make_collector(
     *,
     frames_per_batch: int,
     init_random_frames: int,
+    device: torch.device | str = "cpu",
 ) -> Collector:
     """TorchRL's synchronous collector: ``frames_per_batch`` frames (all seeds) per batch, endless.
 
     The first ``init_random_frames`` frames use uniformly random actions (the warm-up); finished
-    episodes are reset automatically. Batches are shaped ``(S, frames_per_batch // S)``.
+    episodes are reset automatically. Batches are shaped ``(S, frames_per_batch // S)``. Off the CPU
+    (``device``), the environments still step on the CPU; the policy acts on ``device`` and the batches are
+    stored there, beside the replay buffers.
     """
+    devices = {}
+    if torch.device(device).type != "cpu":
+        devices = {"env_device": "cpu", "policy_device": device, "storing_device": device}
     return Collector(
         env,
         policy,
@@ -277,6 +289,7 @@ def make_collector(
         split_trajs=False,
         # The policy is not recurrent: it needs no InitTracker/primer transforms on the env.
         auto_register_policy_transforms=False,
+        **devices,
     )
 
 
@@ -288,14 +301,23 @@ def make_replay_buffers(
     her: bool,
     her_ratio: float,
     her_strategy: str,
+    device: torch.device | str = "cpu",
 ) -> list[TensorDictReplayBuffer]:
-    """One replay buffer per seed: uniform sampling with replacement from a ``LazyTensorStorage``.
+    """One replay buffer per seed: uniform sampling with replacement from a ``LazyTensorStorage`` (on ``device``).
 
     With ``her`` the buffers are :class:`~torchrl.data.HERReplayBuffer` (see ``taskcomplexity.rl.her``).
     """
     if her:
         return [
-            make_her_replay_buffer(task, capacity, her_ratio=her_ratio, strategy=her_strategy)
+            make_her_replay_buffer(task, capacity, her_ratio=her_ratio, strategy=her_strategy,
+                                   storage=_storage(capacity, device))
             for _ in range(num_buffers)
         ]
-    return [TensorDictReplayBuffer(storage=LazyTensorStorage(capacity)) for _ in range(num_buffers)]
+    return [TensorDictReplayBuffer(storage=_storage(capacity, device)) for _ in range(num_buffers)]
+
+
+def _storage(capacity: int, device: torch.device | str) -> LazyTensorStorage:
+    """A ``LazyTensorStorage`` of ``capacity`` transitions, on ``device`` when it is not the CPU."""
+    if torch.device(device).type == "cpu":
+        return LazyTensorStorage(capacity)
+    return LazyTensorStorage(capacity, device=device)

@@ -64,7 +64,8 @@ def relabel(task: TaskSpec, td: TensorDictBase) -> torch.Tensor:
     return reward.unsqueeze(-1).to(td.get(("next", "reward")).dtype)
 
 
-def make_her_replay_buffer(task: TaskSpec, capacity: int, *, her_ratio: float, strategy: str) -> HERReplayBuffer:
+def make_her_replay_buffer(task: TaskSpec, capacity: int, *, her_ratio: float, strategy: str,
+                           storage: LazyTensorStorage | None = None) -> HERReplayBuffer:
     """One seed's HER replay buffer on a :class:`~torchrl.data.LazyTensorStorage` of ``capacity`` transitions.
 
     Parameters
@@ -76,6 +77,8 @@ def make_her_replay_buffer(task: TaskSpec, capacity: int, *, her_ratio: float, s
     her_ratio : float
         Fraction of every sampled batch that is relabelled, in [0, 1].
     strategy : {'future', 'final', 'episode', 'random'}
+    storage : LazyTensorStorage, optional
+        Where the transitions are stored (default: a ``LazyTensorStorage`` of ``capacity`` on the CPU).
     """
     return HERReplayBuffer(
         relabel_fn(task),
@@ -84,5 +87,5 @@ def make_her_replay_buffer(task: TaskSpec, capacity: int, *, her_ratio: float, s
         goal_key=GOAL_KEY,
         achieved_goal_key=ACHIEVED_GOAL_KEY,
         end_key=("next", "done"),
-        storage=LazyTensorStorage(capacity),
+        storage=LazyTensorStorage(capacity) if storage is None else storage,
     )

@@ -13,6 +13,8 @@ from taskcomplexity.tasks.rewards import reward_kind
 from taskcomplexity.tasks.spec import TaskSpec
 
 HER_STRATEGIES = ("future", "final", "episode", "random")
+DEVICES = ("auto", "cpu", "cuda")
+"""Values of ``sac.device``: ``auto`` is CUDA where torch sees a CUDA device, else the CPU."""
 LOSS_FUNCTIONS = ("l2", "l1", "smooth_l1")
 
 
@@ -76,6 +78,11 @@ class SACSettings:
         a resumed run repeat the uninterrupted one exactly; see ``taskcomplexity.rl.train``).
     num_threads : int
         torch intra-op threads during training (restored afterwards); 0 keeps torch's setting.
+    device : {'auto', 'cpu', 'cuda'}
+        Where the networks, their updates and the replay buffers live (the environments step on the CPU):
+        ``auto`` is CUDA where torch sees a CUDA device, else the CPU. Not hashed itself: the resolved device
+        enters the key (and a checkpoint's identity) only when it is not the CPU (:func:`resolve_device`), so
+        every CPU curve keeps its key, and CUDA's curves (other kernels, other rounding) get their own.
     entry : str or None
         ``pipelines/sac.py`` only: the id of a study task whose every SAC run the study would make (its
         variants, at its budget) is trained, the task composed as the study composes it (one job of
@@ -106,6 +113,7 @@ class SACSettings:
     her_strategy: str = "future"
     checkpoint_every: int = 10_000
     num_threads: int = 1
+    device: str = setting("auto", result=False)
     entry: str | None = setting(None, result=False)
 
     @property
@@ -135,6 +143,10 @@ class SACSettings:
             _check(where, name, getattr(self, name), "an integer >= 1", lambda v: isinstance(v, int) and v >= 1)
         _check(where, "warmup_steps", self.warmup_steps, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
         _check(where, "num_threads", self.num_threads, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
+        if self.device not in DEVICES:
+            raise ConfigError(f"{where}.device must be one of {list(DEVICES)}, got {self.device!r}")
+        if self.device == "cuda":
+            resolve_device(self.device, where)  # refused here, before any work, where torch sees no CUDA device
         if self.entry is not None and (not isinstance(self.entry, str) or not self.entry):
             raise ConfigError(f"{where}.entry must be a study task's id or null, got {self.entry!r}")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds) or min(self.seeds) < 0:
@@ -158,6 +170,30 @@ class SACSettings:
                     f"{where}.budget_fraction=1)"
                 )
         return self
+
+
+def resolve_device(device: str, where: str = "sac"):
+    """The :class:`torch.device` of a ``sac.device`` value: ``auto`` → CUDA when torch sees a device, else the CPU.
+
+    Raises
+    ------
+    ConfigError
+        For ``cuda`` where torch sees no CUDA device (a CPU build of torch, or no GPU).
+    """
+    import torch
+
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if device == "cuda" and not torch.cuda.is_available():
+        raise ConfigError(f"{where}.device=cuda, but torch {torch.__version__} sees no CUDA device "
+                          f"(torch.cuda.is_available() is False; allowed here: auto, cpu)")
+    return torch.device(device)
+
+
+def device_identity(settings: SACSettings) -> dict:
+    """What the device adds to a run's identity: nothing on the CPU, ``{"device": "cuda"}`` on a GPU."""
+    device = resolve_device(settings.device)
+    return {} if device.type == "cpu" else {"device": device.type}
 
 
 def _check(where: str, name: str, value, allowed: str, ok) -> None:

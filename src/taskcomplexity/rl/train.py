@@ -69,7 +69,7 @@ from taskcomplexity.rl.factories import (
     make_target_updater,
     success_info_key,
 )
-from taskcomplexity.rl.settings import SACSettings, sac_skip_reason
+from taskcomplexity.rl.settings import SACSettings, device_identity, resolve_device, sac_skip_reason
 from taskcomplexity.rl.snapshots import ActorSnapshots, actor_layers
 from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task
@@ -241,6 +241,7 @@ class _Run:
         self.solved_return = solved_return
         self.success_key = success_info_key(task)
         self.snapshots: ActorSnapshots | None = None
+        self.device = resolve_device(settings.device)
 
     # -- the run -------------------------------------------------------------------------------
     def train(self, stop_after: int | None) -> pd.DataFrame:
@@ -257,7 +258,8 @@ class _Run:
                     success_key=self.success_key,
                 )
                 actor, critics = make_actor_critic(
-                    self.task, hidden_sizes=s.hidden_sizes, seeds=self.seeds, goal_conditioned=self.goal_conditioned
+                    self.task, hidden_sizes=s.hidden_sizes, seeds=self.seeds, goal_conditioned=self.goal_conditioned,
+                    device=self.device,
                 )
                 loss = make_loss(actor, critics, gamma=s.gamma, alpha=s.alpha, loss_function=s.loss_function)
                 updater = make_target_updater(loss, tau=s.tau)
@@ -269,6 +271,7 @@ class _Run:
                     her=s.her,
                     her_ratio=s.her_ratio,
                     her_strategy=s.her_strategy,
+                    device=self.device,
                 )
                 state, rng = self._resume(loss, optimisers, buffers)
                 self._snapshots(state)
@@ -279,6 +282,7 @@ class _Run:
                     actor,
                     frames_per_batch=num_seeds * s.collect_steps,
                     init_random_frames=num_seeds * max(0, s.warmup_steps - state.step),
+                    device=self.device,
                 )
                 self._start_rng(rng)  # after every constructor, so a resumed run continues the same stream
                 parts = _Parts(env, eval_env, actor, loss, updater, optimisers, buffers, collector)
@@ -380,6 +384,7 @@ class _Run:
             goal_conditioned=self.goal_conditioned,
             success_key=self.success_key,
             solved_return=self.solved_return,
+            device=self.device,
         )
         seconds = time.perf_counter() - clock
         for index, seed in enumerate(self.seeds):
@@ -415,9 +420,10 @@ class _Run:
     # -- checkpoints ---------------------------------------------------------------------------
     def _identity(self) -> dict[str, Any]:
         settings = dataclasses.asdict(self.settings)
-        for name in ("num_threads", "enabled"):  # change how fast (or whether), not what is computed
+        for name in ("num_threads", "enabled", "device"):  # how fast (or whether), not what; the device: below
             settings.pop(name)
-        identity = {"format": CHECKPOINT_FORMAT, "task": repr(self.task), "settings": repr(settings)}
+        identity = {"format": CHECKPOINT_FORMAT, "task": repr(self.task), "settings": repr(settings),
+                    **device_identity(self.settings)}
         if self.solved_return is not None:  # changes eval/success_rate
             identity["solved_return"] = self.solved_return
         return identity

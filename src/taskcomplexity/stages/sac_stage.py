@@ -22,7 +22,7 @@ import pandas as pd
 
 from taskcomplexity.config import build, result_identity
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.rl.settings import SACSettings, sac_skip_reason, with_budget
+from taskcomplexity.rl.settings import SACSettings, device_identity, sac_skip_reason, with_budget
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.stage import SEEDS, Judged, Stage, StudyWork
@@ -47,11 +47,12 @@ MISSING_ATTR = "sac_missing"
 
 
 def sac_identity(task, settings, *, solved_return: float | None = None) -> dict:
-    """What a SAC artefact is a function of: the task's identity and the settings (budget resolved).
+    """What a SAC artefact is a function of: the task's identity, the settings (budget resolved) and, off the CPU,
+    the device (:func:`taskcomplexity.rl.settings.device_identity`).
 
     ``solved_return`` (the study's threshold for envs that report no success) enters only when set.
     """
-    identity = {"task": task.identity(), "settings": result_identity(settings)}
+    identity = {"task": task.identity(), "settings": result_identity(settings), **device_identity(settings)}
     if solved_return is not None:
         identity["solved_return"] = float(solved_return)
     return identity
