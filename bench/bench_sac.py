@@ -6,8 +6,8 @@ after the warm-up, for:
 
 1. one seed (``train_sac``),
 2. five seeds trained together (``train_sac_seeds``, stacked parameters, one env per seed),
-3. two such five-seed runs at once in two processes (what a 2-core machine does with two tasks in
-   flight, e.g. ``hydra/launcher=joblib``), summed.
+3. two such five-seed runs at once in two processes (what a study does on a 2-core machine: ``sac.workers``,
+   one run per CPU by default), summed.
 
 The projection divides the paper protocol's seed-steps (every task's budget × 5 seeds, plus the
 SAC+HER runs of the sparse tasks) by each throughput; a refined line corrects each task for its own

@@ -78,6 +78,9 @@ class SACSettings:
         a resumed run repeat the uninterrupted one exactly; see ``taskcomplexity.rl.train``).
     num_threads : int
         torch intra-op threads during training (restored afterwards); 0 keeps torch's setting.
+    workers : int
+        SAC runs a study trains at once, each in a process of its own with ``num_threads`` threads; 0: one per
+        CPU (at most the runs left to train). Runs are independent, so the curves do not depend on it.
     device : {'auto', 'cpu', 'cuda'}
         Where the networks, their updates and the replay buffers live (the environments step on the CPU):
         ``auto`` is CUDA where torch sees a CUDA device, else the CPU. Not hashed itself: the resolved device
@@ -113,6 +116,7 @@ class SACSettings:
     her_strategy: str = "future"
     checkpoint_every: int = 10_000
     num_threads: int = 1
+    workers: int = setting(0, result=False)
     device: str = setting("auto", result=False)
     entry: str | None = setting(None, result=False)
 
@@ -143,6 +147,8 @@ class SACSettings:
             _check(where, name, getattr(self, name), "an integer >= 1", lambda v: isinstance(v, int) and v >= 1)
         _check(where, "warmup_steps", self.warmup_steps, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
         _check(where, "num_threads", self.num_threads, "an integer >= 0", lambda v: isinstance(v, int) and v >= 0)
+        _check(where, "workers", self.workers, "an integer >= 0 (0: one per CPU)",
+               lambda v: isinstance(v, int) and v >= 0)
         if self.device not in DEVICES:
             raise ConfigError(f"{where}.device must be one of {list(DEVICES)}, got {self.device!r}")
         if self.device == "cuda":

@@ -162,9 +162,11 @@ def train_sac_run(
     progress: bool = False,
     stop_after: int | None = None,
     solved_return: float | None = None,
+    bar_position: int | None = None,
 ) -> tuple[pd.DataFrame, ActorSnapshots | None]:
     """As :func:`train_sac_seeds`, with the actors' snapshots: at step 0 and at every checkpoint boundary
-    (every ``checkpoint_every`` steps and the last step), for every seed."""
+    (every ``checkpoint_every`` steps and the last step), for every seed. ``bar_position``: the progress bar's
+    line (tqdm's ``position``) when several runs train at once, each in its own process."""
     seeds = tuple(int(s) for s in (settings.seeds if seeds is None else seeds))
     settings = dataclasses.replace(settings, seeds=seeds).validate()
     task = task.validate()
@@ -172,12 +174,13 @@ def train_sac_run(
     if settings.total_steps is None:
         raise ConfigError(f"no SAC budget for task {task.task_id}: set sac.total_steps (or the study's sac_steps)")
     if settings.train_seeds_together or len(seeds) == 1:
-        run = _Run(task, settings, checkpoint_dir, progress, solved_return)
+        run = _Run(task, settings, checkpoint_dir, progress, solved_return, bar_position)
         return run.train(stop_after), run.snapshots
     curves, snapshots = [], []
     for seed in seeds:
         directory = None if checkpoint_dir is None else Path(checkpoint_dir) / f"seed-{seed}"
-        run = _Run(task, dataclasses.replace(settings, seeds=(seed,)), directory, progress, solved_return)
+        run = _Run(task, dataclasses.replace(settings, seeds=(seed,)), directory, progress, solved_return,
+                   bar_position)
         curves.append(run.train(stop_after))
         snapshots.append(run.snapshots)
     return pd.concat(curves, ignore_index=True), ActorSnapshots.join_seeds(snapshots)
@@ -231,11 +234,13 @@ class _Run:
         checkpoint_dir: Path | None,
         progress: bool,
         solved_return: float | None = None,
+        bar_position: int | None = None,
     ):
         self.task, self.settings = task, settings
         self.seeds = settings.seeds
         self.checkpoint_dir = None if checkpoint_dir is None else Path(checkpoint_dir)
         self.progress = progress
+        self.bar_position = bar_position
         self.total = settings.total_steps
         self.goal_conditioned = settings.her
         self.solved_return = solved_return
@@ -306,6 +311,8 @@ class _Run:
             disable=not self.progress,
             desc=f"{self.task.task_id} {s.variant} seeds={list(self.seeds)}",
             unit="step",
+            position=self.bar_position,
+            leave=self.bar_position is None,
         )
         try:
             if not state.rows:
@@ -420,7 +427,7 @@ class _Run:
     # -- checkpoints ---------------------------------------------------------------------------
     def _identity(self) -> dict[str, Any]:
         settings = dataclasses.asdict(self.settings)
-        for name in ("num_threads", "enabled", "device"):  # how fast (or whether), not what; the device: below
+        for name in ("num_threads", "enabled", "workers", "device"):  # how fast (or whether), not what; device: below
             settings.pop(name)
         identity = {"format": CHECKPOINT_FORMAT, "task": repr(self.task), "settings": repr(settings),
                     **device_identity(self.settings)}

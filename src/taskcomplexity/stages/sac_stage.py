@@ -13,6 +13,7 @@ task's budget only.
 from __future__ import annotations
 
 import logging
+import os
 import shutil
 import time
 from collections.abc import Sequence
@@ -67,11 +68,13 @@ def run_sac_stage(
     force: bool = False,
     progress: bool = False,
     cached_only: bool = False,
+    bar_position: int | None = None,
 ) -> tuple[Artefact | None, bool]:
     """Train (or reuse) one SAC variant of ``task`` over its seed group.
 
     ``settings.total_steps`` must be the run's budget (see :func:`taskcomplexity.rl.with_budget`).
-    ``cached_only``: never train; (None, False) when the cache does not hold the curve.
+    ``cached_only``: never train; (None, False) when the cache does not hold the curve. ``bar_position``: the
+    progress bar's line when several runs train at once.
     """
     from taskcomplexity.rl import train_sac_run
     from taskcomplexity.rl.snapshots import ACTORS_FILE
@@ -86,7 +89,8 @@ def run_sac_stage(
     def write(directory) -> dict:
         scratch = cache.scratch(STAGE, key)
         curves, actors = train_sac_run(
-            task, settings, checkpoint_dir=scratch, progress=progress, solved_return=solved_return
+            task, settings, checkpoint_dir=scratch, progress=progress, solved_return=solved_return,
+            bar_position=bar_position,
         )
         curves.to_parquet(directory / CURVES, index=False)
         if actors is not None:
@@ -99,19 +103,20 @@ def run_sac_stage(
     return cache.get_or_compute(STAGE, key, write, config=identity, force=force, after=cleanup)
 
 
-SEED_STEPS_PER_SECOND = 110.0
-"""Training throughput of the protocol's runs, environment steps per second summed over the seeds of a
-run (five seeds trained together, one gradient update per step, evaluations included) with a whole core:
-``bench/bench_sac.py`` measured 47 seed-steps/s at a CPU share of 0.42 on the busy 2-core development
-machine (2026-11-23), i.e. about 110 on a free core. The basis of the upfront estimate of `make paper`;
-the bench measures it on yours."""
+SEED_STEPS_PER_SECOND = 190.0
+"""Training throughput of one of the protocol's runs, environment steps per second summed over the seeds of the
+run (five seeds trained together, one gradient update per step, evaluations included), with a core of its own:
+``bench/bench_sac.py`` measured 203 seed-steps/s for one run alone and 375 for two at once (188 each) on the
+2-core development machine (2026-11-27, quiet). The basis of the upfront estimate of `make paper`, which
+trains ``sac.workers`` runs at once; the bench measures it on yours."""
 
 
-def training_plan(cache: Cache, runs) -> str:
+def training_plan(cache: Cache, runs, workers: int = 1) -> str:
     """One line: how many SAC runs are left to train, their seed-steps and the estimated wall time.
 
-    ``runs`` are (StudyTask, Task, budgeted SACSettings); a run whose curve the cache holds is done.
-    An interrupted run resumes from its last checkpoint, so the estimate is an upper bound then.
+    ``runs`` are (StudyTask, Task, budgeted SACSettings); a run whose curve the cache holds is done. ``workers``:
+    runs trained at once. An interrupted run resumes from its last checkpoint, so the estimate is an upper bound
+    then.
     """
     from taskcomplexity.rl import protocol_variants
 
@@ -125,11 +130,72 @@ def training_plan(cache: Cache, runs) -> str:
                 seed_steps += int(variant.total_steps) * len(variant.seeds)
     if not todo:
         return f"all {total} runs in the cache"
-    seconds = seed_steps / SEED_STEPS_PER_SECOND
+    at_once = max(1, min(workers, todo))
+    seconds = seed_steps / (SEED_STEPS_PER_SECOND * at_once)
     duration = f"{seconds / 3600:.1f} h" if seconds >= 3600 else f"{max(1, round(seconds / 60))} min"
     return (f"{todo} of {total} runs to train, {seed_steps:,} seed-steps: about {duration} at "
-            f"{SEED_STEPS_PER_SECOND:.0f} seed-steps/s (bench/bench_sac.py measures this machine; an "
-            "interrupted run resumes from its last checkpoint)")
+            f"{SEED_STEPS_PER_SECOND:.0f} seed-steps/s per run, {at_once} at once (bench/bench_sac.py measures this "
+            "machine; an interrupted run resumes from its last checkpoint)")
+
+
+def sac_workers(settings) -> int:
+    """Runs trained at once: ``sac.workers``, or one per CPU when it is 0."""
+    if settings.workers:
+        return settings.workers
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def train_at_once(cache: Cache, jobs, workers: int, *, force: bool = False, progress: bool = False) -> dict:
+    """Train the runs of ``jobs`` that the cache lacks (all of them with ``force``), ``workers`` at a time, each in
+    a process of its own; returns {key: seconds} of the runs trained (empty when fewer than two are left or
+    ``workers`` < 2: the caller trains them one after the other).
+
+    ``jobs`` are (StudyTask, Task, variant SACSettings). Each run is :func:`run_sac_stage` in a fresh interpreter
+    (spawned: no inherited threads or locks); its artefact lands under the key the caller looks up, and the cache's
+    per-key lock keeps two processes from training one run. A run's numbers do not depend on who trains it.
+    """
+    pending = []
+    for entry, task, variant in jobs:
+        key = stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
+        if force or cache.lookup(STAGE, key) is None:
+            pending.append((key, entry, task, variant))
+    at_once = min(workers, len(pending))
+    if at_once < 2:
+        return {}
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    context = multiprocessing.get_context("spawn")
+    seconds = {}
+    with context.Manager() as manager:
+        slots = manager.Queue()
+        for slot in range(at_once):
+            slots.put(slot)
+        pool = ProcessPoolExecutor(max_workers=at_once, mp_context=context)
+        try:
+            running = {pool.submit(_train_one, cache, task, variant, entry.solved_return, force, progress, slots):
+                       (key, entry, variant) for key, entry, task, variant in pending}
+            while running:
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in done:
+                    key, entry, variant = running.pop(future)
+                    seconds[key] = future.result()
+                    log.info("%-26s %s %s", entry.id, variant.variant, outcome(False, seconds[key]))
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    return seconds
+
+
+def _train_one(cache: Cache, task, settings, solved_return, force: bool, progress: bool, slots) -> float:
+    """One run of :func:`train_at_once` in its worker process: its seconds. Its progress bar takes a free line."""
+    slot = slots.get()
+    try:
+        started = time.perf_counter()
+        run_sac_stage(cache, task, settings, solved_return=solved_return, force=force, progress=progress,
+                      bar_position=slot)
+        return time.perf_counter() - started
+    finally:
+        slots.put(slot)
 
 
 def sac_settings_from_config(node: Any):
@@ -185,20 +251,30 @@ def study_sac_curves(
         runs.append((entry, task, budgeted))
     for task_id, reason in skipped.items():
         log.warning("SAC skipped for %s: %s", task_id, reason)
+    trained = {}
     if runs and not cached_only:
-        log.info("%-26s %s", "sac", training_plan(cache, runs))
+        workers = sac_workers(settings)
+        log.info("%-26s %s", "sac", training_plan(cache, runs, workers))
+        jobs = [(entry, task, variant) for entry, task, budgeted in runs
+                for variant in protocol_variants(task, budgeted)]
+        trained = train_at_once(cache, jobs, workers, force=force, progress=progress)
     from taskcomplexity.rl.snapshots import ACTORS_FILE
 
     frames, missing, actors = [], list(unbudgeted), {}
     for entry, task, budgeted in runs:
         found = []
         for variant in protocol_variants(task, budgeted):
-            started = time.perf_counter()
-            artefact, hit = run_sac_stage(cache, task, variant, solved_return=entry.solved_return, force=force,
-                                          progress=progress, cached_only=cached_only)
+            key = stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
+            if key in trained:  # trained at once with the others, and logged then
+                artefact = cache.lookup(STAGE, key)
+            else:
+                started = time.perf_counter()
+                artefact, hit = run_sac_stage(cache, task, variant, solved_return=entry.solved_return, force=force,
+                                              progress=progress, cached_only=cached_only)
+                if artefact is not None:
+                    log.info("%-26s %s %s", entry.id, variant.variant, outcome(hit, time.perf_counter() - started))
             if artefact is None:
                 break
-            log.info("%-26s %s %s", entry.id, variant.variant, outcome(hit, time.perf_counter() - started))
             found.append(pd.read_parquet(artefact.file(CURVES)).assign(task=entry.id))
             if variant.variant == "sac" and artefact.path.joinpath(ACTORS_FILE).exists():
                 actors[entry.id] = (artefact.key, str(artefact.path / ACTORS_FILE))
