@@ -100,6 +100,47 @@ def env_step_seconds(arm: str, reward: str, her: bool, instances: int = PAPER_SE
         env.close()
 
 
+def macs_per_seed_step(n_obs: int, n_act: int, hidden=(256, 256), batch: int = 64) -> int:
+    """Multiply-accumulates of one SAC update of one seed (one environment step's worth), counted from the shapes.
+
+    Per minibatch row: forward passes of the actor on s and s′, of both critics on (s, ã) for the actor loss and
+    on (s, a) for the critic loss, and of both target critics on (s′, a′); backward passes as about twice a
+    forward (weights and inputs) for the actor and the critics of the critic loss, and once (inputs only: their
+    parameters are detached there) for the critics of the actor loss.
+    """
+    def mlp(inputs: int, outputs: int) -> int:
+        sizes = [inputs, *hidden, outputs]
+        return sum(a * b for a, b in zip(sizes[:-1], sizes[1:], strict=True))
+
+    actor, critic = mlp(n_obs, 2 * n_act), mlp(n_obs + n_act, 1)
+    forward = 2 * actor + 4 * critic + 2 * critic
+    backward = 2 * actor + 2 * 2 * critic + 2 * 1 * critic
+    return batch * (forward + backward)
+
+
+def gemm_rates(seeds: int = PAPER_SEEDS, batch: int = 64, width: int = 256, repeats: int = 5) -> tuple[float, float]:
+    """MAC/s of float32 batched products at the update's shape, (seeds, batch, width) @ (seeds, width, width), and of
+    one large product (1024³), one torch thread, best of ``repeats``."""
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        rates = []
+        for a, b in (((seeds, batch, width), (seeds, width, width)), ((1024, 1024), (1024, 1024))):
+            x, y = torch.randn(*a), torch.randn(*b)
+            macs = x.numel() * y.shape[-1]
+            loops = max(1, int(2e9 // macs))
+            best = math.inf
+            for _ in range(repeats):
+                start = time.perf_counter()
+                for _ in range(loops):
+                    torch.matmul(x, y)
+                best = min(best, time.perf_counter() - start)
+            rates.append(macs * loops / best)
+        return rates[0], rates[1]
+    finally:
+        torch.set_num_threads(previous)
+
+
 def hours(seconds: float) -> str:
     return f"{seconds / 3600:5.2f} h"
 
@@ -150,6 +191,15 @@ def main() -> None:
         f"\npaper protocol: {len(runs)} runs (7 tasks + SAC+HER on 3 sparse tasks) × {PAPER_SEEDS} seeds = "
         f"{seed_steps:,} seed-steps; projection = seed-steps / throughput (warm-up counted at full cost)."
     )
+    task = make_task(*BENCH_TASK)
+    per_step = macs_per_seed_step(task.observation_size, task.action_size)
+    at_shape, large = gemm_rates()
+    together = results["5 seeds together"]["rate"]
+    print(f"arithmetic: {per_step / 1e6:.0f} MMAC per seed-step (counted from the shapes, batch 64); five seeds "
+          f"together run at {together * per_step / 1e9:.1f} GMAC/s effective, against float32 matmul at the update's "
+          f"shape (5 × 64 × 256 @ 256 × 256) {at_shape / 1e9:.1f} GMAC/s and at 1024³ {large / 1e9:.1f} GMAC/s on one "
+          f"thread: the floor of the five-seed run is {at_shape / per_step:.0f} seed-steps/s at the update's shape "
+          "(the rest is the optimiser, the loss's element-wise work, per-operation overhead and the environments)")
     print("env step cost per instance (random actions, 5 instances): "
           + ", ".join(f"{a}-{r}{'+her' if h else ''} {1e6 * s:.0f} µs" for (a, r, h), s in probe.items()))
     sys.stdout.flush()
