@@ -162,8 +162,9 @@ class ReachingEnv(gym.Env):
         client.setJointMotorControlArray(
             self._arm_id, self._joints, self._torque_control, forces=list(action * self.task.arm.torque_scale)
         )
+        simulate = client.stepSimulation  # one attribute lookup: a BulletClient builds a new callable at each
         for _ in range(self.task.arm.substeps):
-            client.stepSimulation()
+            simulate()
         observation, distance, elbow, effector = self._observe()
         forearm = mechanics.forearm_clearance(self.task, elbow, effector) if obstacle is not None else None
         reward, terms, collision = mechanics.reward_terms(self.task, action, distance, upper, forearm)
