@@ -59,6 +59,11 @@ def sac_identity(task, settings, *, solved_return: float | None = None) -> dict:
     return identity
 
 
+def run_key(entry, task, variant) -> str:
+    """The cache key of one SAC run of a study entry (its ``solved_return`` included)."""
+    return stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
+
+
 def run_sac_stage(
     cache: Cache,
     task,
@@ -124,7 +129,7 @@ def training_plan(cache: Cache, runs, workers: int = 1) -> str:
     for entry, task, budgeted in runs:
         for variant in protocol_variants(task, budgeted):
             total += 1
-            key = stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
+            key = run_key(entry, task, variant)
             if cache.lookup(STAGE, key) is None:
                 todo += 1
                 seed_steps += int(variant.total_steps) * len(variant.seeds)
@@ -156,7 +161,7 @@ def train_at_once(cache: Cache, jobs, workers: int, *, force: bool = False, prog
     """
     pending = []
     for entry, task, variant in jobs:
-        key = stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
+        key = run_key(entry, task, variant)
         if force or cache.lookup(STAGE, key) is None:
             pending.append((key, entry, task, variant))
     at_once = min(workers, len(pending))
@@ -264,7 +269,7 @@ def study_sac_curves(
     for entry, task, budgeted in runs:
         found = []
         for variant in protocol_variants(task, budgeted):
-            key = stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
+            key = run_key(entry, task, variant)
             if key in trained:  # trained at once with the others, and logged then
                 artefact = cache.lookup(STAGE, key)
             else:
