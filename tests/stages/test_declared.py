@@ -72,14 +72,27 @@ def smoke(compose_config, tmp_path):
     return cfg
 
 
-def test_the_plan_holds_every_stages_typed_settings_and_writes_nothing_but_the_cache_root(smoke, tmp_path):
+def test_the_plan_holds_every_stages_typed_settings_and_writes_nothing(smoke, tmp_path):
     plan = read_plan(smoke)
     assert set(plan.settings) == {s.name for s in STAGES if s.group is not None}
     for stage in STAGES:
         assert isinstance(plan.settings[stage.name], stage.settings), stage.name
     assert plan.settings["rwg"] == plan.requests[0].settings and list(plan.tasks) == [e.id for e in plan.entries]
     assert plan.name == "seven_tasks-smoke" and plan.outputs == tmp_path / "outputs" and not plan.force
-    assert not any(p.is_file() for p in (tmp_path / "outputs").rglob("*")), "no work before the plan is read"
+    assert not (tmp_path / "outputs").exists(), "reading the plan makes no directory"
+    assert plan.cache.root == tmp_path / "outputs" / "cache"
+
+
+def test_the_chain_refuses_a_cache_it_cannot_write_before_any_stage_naming_the_key(smoke, tmp_path):
+    from taskcomplexity.errors import ArtefactError
+    from taskcomplexity.study.chain import study_artefacts
+
+    (tmp_path / "outputs").mkdir()
+    (tmp_path / "outputs" / "cache").write_text("a file where the cache's directory would be")
+    plan = read_plan(smoke)
+    with pytest.raises(ArtefactError, match=r"^paths\.cache: cannot write to "):
+        study_artefacts(plan, progress=False, ahead=False)
+    assert sorted(p.name for p in (tmp_path / "outputs").iterdir()) == ["cache"]
 
 
 BAD = {  # per stage group: a value its settings refuse, and what the message says

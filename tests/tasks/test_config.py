@@ -190,8 +190,7 @@ def test_experiment_published_without_a_published_scale_is_one_line(compose_conf
 
 def test_a_studys_policy_family_applies_unless_the_command_line_or_the_entry_chooses(compose_config):
     from taskcomplexity.config import plain
-    from taskcomplexity.study.compose import _entry_overrides, entry_config, study_family
-    from taskcomplexity.study.plan import entry_base
+    from taskcomplexity.study.compose import _entry_overrides, entry_base, entry_config, study_family
     from taskcomplexity.study_data import study_from_config
 
     study = study_from_config({"name": "s", "network": "pic_h2_64", "prior": "normal",

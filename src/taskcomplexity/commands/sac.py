@@ -39,8 +39,8 @@ from taskcomplexity.stages.sac_stage import (
     sac_settings_from_config,
     study_sac_curves,
 )
-from taskcomplexity.study.compose import entry_config, study_family
-from taskcomplexity.study.plan import cache_from_config, entry_base, study_from
+from taskcomplexity.study.compose import entry_base, entry_config, study_family
+from taskcomplexity.study.plan import cache_from_config, study_from
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 

@@ -76,6 +76,13 @@ def ensure_writable(root: Path, key: str = "paths.outputs") -> None:
         raise ArtefactError(f"{key}: cannot write to {root} ({err.strerror or err})") from err
 
 
+def check_writable(outputs: Path, cache: Cache) -> None:
+    """Fail early, naming the config key, when ``outputs`` (``paths.outputs``) or the cache's root (``paths.cache``)
+    cannot be written (each made if missing)."""
+    ensure_writable(outputs)
+    ensure_writable(cache.root, key="paths.cache")
+
+
 def file_digest(path: Path) -> str:
     """SHA-256 of a file's bytes (hex)."""
     digest = hashlib.sha256()
@@ -151,11 +158,14 @@ def remove_orphans(directory: Path, pattern: str) -> int:
     return removed
 
 
+@dataclass(frozen=True)
 class Cache:
-    """The artefact store under ``root`` (``<paths.outputs>/cache``)."""
+    """The artefact store under ``root`` (``<paths.outputs>/cache``): a place, so making one writes nothing."""
 
-    def __init__(self, root: str | Path):
-        self.root = Path(root)
+    root: Path
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "root", Path(self.root))
 
     def path(self, stage: str, key: str) -> Path:
         return self.root / stage / key

@@ -34,7 +34,6 @@ from taskcomplexity.metrics.sample import Sample
 from taskcomplexity.policies.families import network_from_config
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.policies.primitives import PrimitiveSpec
-from taskcomplexity.rwg import resolve_backend
 from taskcomplexity.stages import metrics_stage, rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
@@ -117,8 +116,7 @@ class PrimitivesSettings:
                                   shard=0, shards=1)
         rwg.validate()
         backend = study_request.backend if study_request.backend != "gym" else "auto"
-        return RWGRequest(study_request.task, self.network, self.prior, rwg,
-                          resolve_backend(study_request.task, backend, self.network))
+        return RWGRequest(study_request.task, self.network, self.prior, rwg, backend)
 
 
 def primitives_key(request: RWGRequest, metrics: MetricsSettings, settings: PrimitivesSettings,

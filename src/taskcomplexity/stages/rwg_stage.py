@@ -25,7 +25,7 @@ from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.policies.primitives import PrimitiveSpec
 from taskcomplexity.progress import Progress
-from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
+from taskcomplexity.rwg import AUTO, ReturnChunk, RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
 from taskcomplexity.stages.keys import Numerics, stage_key
@@ -51,13 +51,21 @@ RETURNS = "returns.parquet"
 
 @dataclass(frozen=True)
 class RWGRequest:
-    """Everything that determines a return matrix (plus how to split the work)."""
+    """Everything that determines a return matrix (plus how to split the work).
+
+    ``backend`` is resolved when the request is made: ``auto`` (the default) becomes the task's fastest exact
+    backend for the network's family, and a backend the task does not have is refused (ConfigError naming
+    ``backend``), so a request always holds the backend that will run it.
+    """
 
     task: Task
     network: NetworkSpec | PrimitiveSpec
     prior: PriorSpec
     settings: RWGSettings
-    backend: str = "batched"
+    backend: str = AUTO
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "backend", resolve_backend(self.task, str(self.backend), self.network))
 
     def identity(self) -> dict:
         """What the key hashes: the task, the sampler, the backend and the RWG settings declared to change

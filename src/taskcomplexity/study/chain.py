@@ -15,7 +15,7 @@ import pandas as pd
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.stages.ahead import computing_ahead
-from taskcomplexity.stages.cache import Artefact
+from taskcomplexity.stages.cache import Artefact, check_writable
 from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.stages.diagnostics_stage import STAGE as DIAGNOSTICS
 from taskcomplexity.stages.metrics_stage import STAGE as METRICS
@@ -69,12 +69,14 @@ class StudyArtefacts:
 
 def study_artefacts(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, progress: bool = True,
                     ahead: bool | None = None) -> StudyArtefacts:
-    """Compute or reuse every artefact of the study of ``plan``, stage by stage (each logs its cache hits).
+    """Compute or reuse every artefact of the study of ``plan``, stage by stage (each logs its cache hits), after
+    checking that the cache and the outputs can be written.
 
     ``ahead``: compute the stages that read only a task's returns in a background process as the returns
     come (:mod:`taskcomplexity.stages.ahead`; None: when the study is large enough). The artefacts are
     the same either way.
     """
+    check_writable(plan.outputs, plan.cache)
     work = StudyWork(plan, registry, progress=progress)
     with computing_ahead(plan, STAGES, RWG, registry=registry, start=ahead):
         for stage in CHAIN:

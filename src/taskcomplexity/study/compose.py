@@ -87,8 +87,8 @@ def _compose(overrides: list[str], where: str):
 
 @dataclass(frozen=True)
 class EntryBase:
-    """What every study entry takes from the study's own composed config, as plain data (read by the plan,
-    :func:`taskcomplexity.study.plan.entry_base`): what neither the entry nor the study's family chooses.
+    """What every study entry takes from the study's own composed config, as plain data (:func:`entry_base`):
+    what neither the entry nor the study's family chooses.
 
     Attributes
     ----------
@@ -104,6 +104,12 @@ class EntryBase:
     max_steps: Any
     prior: Mapping[str, Any]
     network: Mapping[str, Any]
+
+
+def entry_base(config: Mapping[str, Any]) -> EntryBase:
+    """What every study entry takes from the study's own composed config as plain data (``config``,
+    :func:`~taskcomplexity.config.plain`): backend, max_steps, prior, network."""
+    return EntryBase(str(config["backend"]), config["max_steps"], config["prior"], config["network"])
 
 
 def entry_config(base: EntryBase, entry, typed: list[str], where: str, family: dict[str, str] | None = None):
@@ -176,15 +182,18 @@ def study_scale(settings, study, typed: list[str]) -> dict[str, int]:
     return scale
 
 
-def entry_requests(study: Study, settings, base: EntryBase, typed: list[str]) -> list[tuple[StudyTask, RWGRequest]]:
+def entry_requests(study: Study, settings, config: Mapping[str, Any], typed: list[str]
+                   ) -> list[tuple[StudyTask, RWGRequest]]:
     """(StudyTask, RWGRequest) for every entry of the study, in study order.
 
     Each entry is composed with Hydra's compose API from the packaged configs (and the user's search
     path): the entry's own choices (``task``, ``env_id``, ``kwargs``, ``max_steps``, ``arm``,
     ``reward``, ``prior``, ``network``) over the command line's overrides ``typed``, so an override such as
-    ``arm.links.0.mass=7`` reaches every study task; what no entry chooses comes from ``base``. ``settings``:
-    the RWG settings; N and M of every entry: :func:`study_scale`.
+    ``arm.links.0.mass=7`` reaches every study task; what no entry chooses comes from the study's own composed
+    config ``config`` (plain data, :func:`entry_base`). ``settings``: the RWG settings; N and M of every entry:
+    :func:`study_scale`.
     """
+    base = entry_base(config)
     overrides = study_scale(settings, study, typed)
     if overrides:
         settings = dataclasses.replace(settings, **overrides)
@@ -207,10 +216,9 @@ def request_of(node: Any, settings, task=None) -> RWGRequest:
     if given), its policy family and prior, ``settings``, and its backend (``auto`` resolved)."""
     from taskcomplexity.policies.families import network_from_config
     from taskcomplexity.policies.mlp import PriorSpec
-    from taskcomplexity.rwg import resolve_backend
 
     task = task_from_config(node) if task is None else task
     network, prior = network_from_config(node.network), build(PriorSpec, node.prior, "prior")
-    return RWGRequest(task, network, prior, settings, resolve_backend(task, str(node.backend), network))
+    return RWGRequest(task, network, prior, settings, str(node.backend))
 
 

@@ -4,9 +4,10 @@ The study entry point turns the composed config into a :class:`StudyPlan` before
 declared stage's typed settings (:data:`taskcomplexity.stages.declared.STAGES`, each read from its config group
 and checked against the study's tasks), each task's RWG request, the cache, and what the report needs (its
 name, title, directory). This is the one module that reads the raw config: it hands plain data down, to
-:mod:`taskcomplexity.study.compose` too, which composes each study entry through Hydra (:func:`entry_base`:
-what every entry takes from the study's own config). Below it, the chain (:mod:`taskcomplexity.study.chain`)
-and the report take the plan.
+:mod:`taskcomplexity.study.compose` too, which composes each study entry through Hydra
+(:func:`~taskcomplexity.study.compose.entry_base`: what every entry takes from the study's own config). Reading
+the plan writes nothing: the chain checks that the cache and the outputs can be written before its first stage.
+Below it, the chain (:mod:`taskcomplexity.study.chain`) and the report take the plan.
 
 The single-stage commands read the little they need here too (:func:`metrics_settings_from_config`,
 :func:`cache_from_config`, their task's request :func:`rwg_request_from_config`, the study's requests
@@ -24,12 +25,12 @@ from taskcomplexity.cli import job_overrides, sac_command, sweep_job_dir, user_o
 from taskcomplexity.config import build, plain
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.stages.cache import Cache, ensure_writable
+from taskcomplexity.stages.cache import Cache, check_writable
 from taskcomplexity.stages.declared import STAGES, check_registry
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import STAGE as RWG
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study.compose import EntryBase, entry_requests, request_of
+from taskcomplexity.study.compose import entry_requests, request_of
 from taskcomplexity.study_data import Study, StudyTask, study_from_config
 from taskcomplexity.tasks.from_config import task_from_config
 
@@ -47,7 +48,7 @@ class StudyPlan:
     settings : mapping of stage name to settings
         Every declared stage's typed, validated settings (the RWG settings at the study's N and M).
     cache : Cache
-        The artefact store (``paths.cache``; it and ``paths.outputs`` checked writable).
+        The artefact store (``paths.cache``; the chain checks it and ``paths.outputs`` writable before any work).
     force : bool
         Recompute every artefact even when its key exists.
     name : str
@@ -86,9 +87,9 @@ class StudyPlan:
 def read_plan(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyPlan:
     """The plan of the study of a composed config, read once: the run's name and title, then the config as plain
     data (:func:`~taskcomplexity.config.plain`: nothing below reads Hydra's config), every stage's settings read
-    and checked, each task composed, the checks that join them (each record's ``check``), and last the cache
-    (its directories made only when every check passed); any problem is one ConfigError naming the key, before
-    any work and with the cache untouched."""
+    and checked, each task composed, the checks that join them (each record's ``check``), and the cache's place;
+    any problem is one ConfigError naming the key, before any work. Nothing is written (the cache's directories
+    are made by the chain, :func:`taskcomplexity.study.chain.study_artefacts`)."""
     name = run_name(cfg)
     title = report_title(cfg.get("report") or {}, name)
     config = plain(cfg)
@@ -96,22 +97,16 @@ def read_plan(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyPlan:
     study = study_from_config(config["study"])
     settings = {stage.name: stage.settings_from(config[stage.group], study) for stage in STAGES
                 if stage.group is not None}
-    entries, requests = zip(*entry_requests(study, settings[RWG], entry_base(config), typed), strict=True)
+    entries, requests = zip(*entry_requests(study, settings[RWG], config, typed), strict=True)
     settings[RWG] = requests[0].settings  # at the study's N and M
     for stage in STAGES:  # every stage's settings against the study's tasks, before any work
         if stage.check is not None:
             stage.check(settings[stage.name], study, requests, typed)
     check_registry(registry)
-    cache = cache_from_config(config)
+    cache = Cache(Path(config["paths"]["cache"]))
     return StudyPlan(study, entries, requests, settings, cache, force=bool(config["force"]), name=name,
                      outputs=Path(config["paths"]["outputs"]), title=title, sac_command=sac_command(),
                      job_dir=sweep_job_dir(), overrides=job_overrides())
-
-
-def entry_base(config: Mapping[str, Any]) -> EntryBase:
-    """What every study entry takes from the study's own composed config as plain data (``config``,
-    :func:`~taskcomplexity.config.plain`): backend, max_steps, prior, network."""
-    return EntryBase(str(config["backend"]), config["max_steps"], config["prior"], config["network"])
 
 
 def study_requests(cfg: Any, study: Study | None = None, settings=None) -> list[tuple[StudyTask, RWGRequest]]:
@@ -122,7 +117,7 @@ def study_requests(cfg: Any, study: Study | None = None, settings=None) -> list[
 
     study = study or study_from(cfg)
     settings = settings if settings is not None else build(RWGSettings, cfg.rwg, "rwg")
-    return entry_requests(study, settings, entry_base(plain(cfg)), user_overrides())
+    return entry_requests(study, settings, plain(cfg), user_overrides())
 
 
 def report_title(node: Any, name: str) -> str:
@@ -152,9 +147,9 @@ def run_name(cfg: Any) -> str:
 
 def cache_from_config(cfg: Any) -> Cache:
     """The cache under ``paths.cache``, after checking that it and ``paths.outputs`` can be written."""
-    ensure_writable(Path(cfg["paths"]["outputs"]))
-    ensure_writable(Path(cfg["paths"]["cache"]), key="paths.cache")
-    return Cache(Path(cfg["paths"]["cache"]))
+    cache = Cache(Path(cfg["paths"]["cache"]))
+    check_writable(Path(cfg["paths"]["outputs"]), cache)
+    return cache
 
 
 def rwg_request_from_config(cfg: Any, task=None) -> RWGRequest:
