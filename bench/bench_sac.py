@@ -24,6 +24,7 @@ import argparse
 import math
 import multiprocessing
 import os
+import statistics
 import sys
 import time
 
@@ -141,6 +142,63 @@ def gemm_rates(seeds: int = PAPER_SEEDS, batch: int = 64, width: int = 256, repe
         torch.set_num_threads(previous)
 
 
+def update_seconds(seeds: int = PAPER_SEEDS, updates: int = 100, repeats: int = 5) -> dict[str, float]:
+    """Seconds per SAC update (objective, backward, both Adam steps, target update) at the protocol's shapes, one
+    torch thread: through TorchRL's ``SACLoss`` (how training ran before) and through the direct objective that
+    training uses (:mod:`taskcomplexity.rl.objective`, the same numbers); alternating, median of ``repeats``."""
+    from tensordict import TensorDict
+
+    from taskcomplexity.rl.factories import (
+        make_actor_critic,
+        make_loss,
+        make_objective,
+        make_optimisers,
+        make_target_updater,
+    )
+
+    s = SACSettings()
+    task = make_task(*BENCH_TASK)
+    n_obs, n_act, b = task.observation_size, task.action_size, s.batch_size
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(0)
+            actor, critics = make_actor_critic(task, hidden_sizes=s.hidden_sizes, seeds=tuple(range(seeds)),
+                                               goal_conditioned=False)
+            loss = make_loss(actor, critics, gamma=s.gamma, alpha=s.alpha, loss_function=s.loss_function)
+            optimisers = make_optimisers(loss, actor_lr=s.actor_lr, critic_lr=s.critic_lr)
+            updater = make_target_updater(loss, tau=s.tau)
+            objective = make_objective(loss, actor, task, gamma=s.gamma, loss_function=s.loss_function,
+                                       goal_conditioned=False)
+            batches = [TensorDict({
+                "observation": torch.randn(seeds, b, n_obs), "action": torch.rand(seeds, b, n_act) * 2 - 1,
+                "next": {"observation": torch.randn(seeds, b, n_obs), "reward": torch.randn(seeds, b, 1),
+                         "done": torch.zeros(seeds, b, 1, dtype=torch.bool),
+                         "terminated": torch.zeros(seeds, b, 1, dtype=torch.bool)}}, [seeds, b]) for _ in range(10)]
+
+            def through_sacloss(batch):
+                out = loss(batch)
+                return (out.get("loss_actor") + out.get("loss_qvalue")) * seeds
+
+            times: dict[str, list[float]] = {"SACLoss": [], "direct": []}
+            for _ in range(repeats):
+                for name, value in (("SACLoss", through_sacloss), ("direct", objective)):
+                    start = time.perf_counter()
+                    for i in range(updates):
+                        total = value(batches[i % len(batches)])
+                        for optimiser in optimisers:
+                            optimiser.zero_grad(set_to_none=True)
+                        total.backward()
+                        for optimiser in optimisers:
+                            optimiser.step()
+                        updater.step()
+                    times[name].append((time.perf_counter() - start) / updates)
+        return {name: statistics.median(values) for name, values in times.items()}
+    finally:
+        torch.set_num_threads(previous)
+
+
 def hours(seconds: float) -> str:
     return f"{seconds / 3600:5.2f} h"
 
@@ -200,6 +258,11 @@ def main() -> None:
           f"shape (5 × 64 × 256 @ 256 × 256) {at_shape / 1e9:.1f} GMAC/s and at 1024³ {large / 1e9:.1f} GMAC/s on one "
           f"thread: the floor of the five-seed run is {at_shape / per_step:.0f} seed-steps/s at the update's shape "
           "(the rest is the optimiser, the loss's element-wise work, per-operation overhead and the environments)")
+    update = update_seconds()
+    print(f"one five-seed update (one thread, alternating, median of 5 × 100): through SACLoss "
+          f"{1e3 * update['SACLoss']:.1f} ms, direct (what training runs) {1e3 * update['direct']:.1f} ms: "
+          f"{update['SACLoss'] / update['direct']:.2f}× (the same numbers: tests/rl/test_objective.py); "
+          f"{PAPER_SEEDS * per_step / update['direct'] / 1e9:.1f} GMAC/s in the direct update")
     print("env step cost per instance (random actions, 5 instances): "
           + ", ".join(f"{a}-{r}{'+her' if h else ''} {1e6 * s:.0f} µs" for (a, r, h), s in probe.items()))
     sys.stdout.flush()

@@ -76,13 +76,21 @@ class SeedBatchedLinear(nn.Module):
             raise ValueError(f"expected a leading seed dimension of {self.seeds}, got input of shape {tuple(x.shape)}")
         batch_shape = x.shape[1:-1]
         flat = x.reshape(self.seeds, -1, self.in_features)
-        weight = self.weight.transpose(1, 2) if self.transposed else self.weight
-        out = torch.bmm(flat, weight) if self.bias is None else torch.baddbmm(self.bias, flat, weight)
+        out = seed_batched_linear(flat, self.weight, self.bias, self.out_features)
         return out.reshape(self.seeds, *batch_shape, self.out_features)
 
     def extra_repr(self) -> str:
         bias = self.bias is not None
         return f"in_features={self.in_features}, out_features={self.out_features}, seeds={self.seeds}, bias={bias}"
+
+
+def seed_batched_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor | None,
+                        out_features: int) -> torch.Tensor:
+    """``x[s] @ W[s] + b[s]`` for each parameter set s: x (S, B, in) → (S, B, out), with the weight stored as
+    :class:`SeedBatchedLinear` stores it ((S, out, in) for a narrow output, else (S, in, out)) and bias (S, 1, out)."""
+    if out_features < NARROW_OUTPUT:
+        weight = weight.transpose(1, 2)
+    return torch.bmm(x, weight) if bias is None else torch.baddbmm(bias, x, weight)
 
 
 def reset_seed_parameters(module: nn.Module, seeds: list[int] | tuple[int, ...]) -> None:

@@ -64,11 +64,13 @@ from taskcomplexity.rl.factories import (
     make_collector,
     make_env,
     make_loss,
+    make_objective,
     make_optimisers,
     make_replay_buffers,
     make_target_updater,
     success_info_key,
 )
+from taskcomplexity.rl.objective import SACObjective
 from taskcomplexity.rl.settings import SACSettings, device_identity, resolve_device, sac_skip_reason
 from taskcomplexity.rl.snapshots import ActorSnapshots, actor_layers
 from taskcomplexity.seeding import derive_seed
@@ -218,6 +220,7 @@ class _Parts:
     eval_env: EnvBase
     actor: ProbabilisticActor
     loss: SACLoss
+    objective: SACObjective
     updater: SoftUpdate
     optimisers: tuple[torch.optim.Optimizer, ...]
     buffers: list[TensorDictReplayBuffer]
@@ -290,7 +293,9 @@ class _Run:
                     device=self.device,
                 )
                 self._start_rng(rng)  # after every constructor, so a resumed run continues the same stream
-                parts = _Parts(env, eval_env, actor, loss, updater, optimisers, buffers, collector)
+                objective = make_objective(loss, actor, self.task, gamma=s.gamma, loss_function=s.loss_function,
+                                           goal_conditioned=self.goal_conditioned)
+                parts = _Parts(env, eval_env, actor, loss, objective, updater, optimisers, buffers, collector)
                 self._loop(parts, state, stop_after)
                 self._snapshots(state)
                 return self._curve(state)
@@ -361,10 +366,8 @@ class _Run:
         minibatches = sample_minibatches(
             p.buffers, updates=updates, batch_size=s.batch_size, keys=p.loss.in_keys, shuffle=s.her
         )
-        scale = float(len(self.seeds))  # the loss is a mean over seeds: undo the 1/S per seed
         for i in range(updates):
-            out = p.loss(minibatches[:, i])
-            objective = (out.get("loss_actor") + out.get("loss_qvalue")) * scale
+            objective = p.objective(minibatches[:, i])  # S × the mean over seeds: each seed's gradient is its own
             for optimiser in p.optimisers:
                 optimiser.zero_grad(set_to_none=True)
             objective.backward()

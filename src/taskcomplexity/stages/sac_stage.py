@@ -33,7 +33,8 @@ log = logging.getLogger(__name__)
 
 STAGE = "sac"
 NUMERICS = Numerics(version=1, modules=(
-    "rl.settings", "rl.train", "rl.factories", "rl.layers", "rl.her", "rl.evaluation", "rl.snapshots", "policies.mlp",
+    "rl.settings", "rl.train", "rl.factories", "rl.layers", "rl.objective", "rl.her", "rl.evaluation", "rl.snapshots",
+    "policies.mlp",
     "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.pybullet_env",
     "tasks.goal_env", "tasks.gym_task", "stages.sac_stage",
 ))
