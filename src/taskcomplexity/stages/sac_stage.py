@@ -109,12 +109,12 @@ def run_sac_stage(
     return cache.get_or_compute(STAGE, key, write, config=identity, force=force, after=cleanup)
 
 
-SEED_STEPS_PER_SECOND = 190.0
+SEED_STEPS_PER_SECOND = 245.0
 """Training throughput of one of the protocol's runs, environment steps per second summed over the seeds of the
 run (five seeds trained together, one gradient update per step, evaluations included), with a core of its own:
-``bench/bench_sac.py`` measured 191 seed-steps/s for one run alone and 386 for two at once (193 each) on the
-2-core development machine (a fresh clone at 3617b8a, 2026-11-27). The basis of the upfront estimate of
-`make paper`, which trains ``sac.workers`` runs at once; the bench measures it on yours."""
+``bench/bench_sac.py`` measured 245 seed-steps/s for one run alone and 489 for two at once on the 2-core
+development machine (a fresh clone at a115682, 2026-11-27). The basis of the upfront estimate of `make paper`,
+which trains ``sac.workers`` runs at once; the bench measures it on yours."""
 
 
 def training_plan(cache: Cache, runs, workers: int = 1) -> str:
