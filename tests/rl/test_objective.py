@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 import torch
 
-from taskcomplexity.rl.factories import _TaskObservation, make_actor_critic, make_env, make_loss
+from taskcomplexity.rl.factories import _TaskObservation, make_actor_critic, make_env, make_loss, make_target_updater
 from taskcomplexity.rl.objective import SACObjective
 from taskcomplexity.tasks.spec import make_task
 
@@ -40,6 +40,7 @@ def test_the_direct_objective_gives_sacloss_s_losses_and_gradients(arm, reward, 
     task = make_task(arm, reward)
     actor, critics = make_actor_critic(task, hidden_sizes=(48, 40), seeds=SEEDS, goal_conditioned=goal_conditioned)
     loss = make_loss(actor, critics, gamma=0.95, alpha=0.3, loss_function=loss_function)
+    make_target_updater(loss, tau=0.005)  # as in training (the loss expects one)
     batch = _minibatch(task, goal_conditioned, loss)
     params = [*loss.actor_network_params.flatten_keys().values(), *loss.qvalue_network_params.flatten_keys().values()]
 
