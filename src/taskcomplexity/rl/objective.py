@@ -41,13 +41,15 @@ Layers = list[tuple[torch.Tensor, torch.Tensor]]
 
 
 def _layers(params: TensorDictBase, sets: int) -> Layers:
-    """(weight, bias) of each linear layer, in order, from a module's parameters (weights then bias per layer),
-    each viewed with one leading dimension of ``sets`` parameter sets (so gradients reach the parameters)."""
-    tensors = list(params.flatten_keys().values())
-    if len(tensors) % 2:
-        raise ValueError("expected a weight and a bias per layer")
+    """(weight, bias) of each linear layer, in order, from a module's parameters (weight then bias per layer),
+    each a view with one leading dimension of ``sets`` parameter sets: gradients reach the parameters, and in-place
+    updates of them (the target critics' averaging, a checkpoint's loading) reach the views."""
+    flat = params.flatten_keys()
+    names, tensors = list(flat.keys()), list(flat.values())
+    if [n.rpartition(".")[2] for n in names] != ["weight", "bias"] * (len(names) // 2):
+        raise ValueError(f"expected a weight and a bias per layer, got {names}")
     pairs = zip(tensors[::2], tensors[1::2], strict=True)
-    return [(w.reshape(sets, *w.shape[-2:]), b.reshape(sets, *b.shape[-2:])) for w, b in pairs]
+    return [(w.view(sets, *w.shape[-2:]), b.view(sets, *b.shape[-2:])) for w, b in pairs]
 
 
 def _mlp(layers: Layers, x: torch.Tensor) -> torch.Tensor:
