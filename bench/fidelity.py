@@ -114,6 +114,7 @@ def main() -> None:
         print(f"{result.task_id:<26}{row['pic']:8.4f}{row['pic_mean']:11.4f} ± {row['pic_sd']:.4f}"
               f"{row['poic_mean']:13.4f} ± {row['poic_sd']:.4f}{row['h_r']:9.4f}{row['h_r_given_theta']:9.4f}"
               f"{reference:>20}{off:>10}")
+    precision_check(plan, results, settings)
     for result in results:
         published = PUBLISHED.get(result.task_id)
         if not published:
@@ -126,6 +127,28 @@ def main() -> None:
         if SCAN_CELL not in cells:
             raise SystemExit(f"--scan: study {study.name} has no task {SCAN_CELL}")
         torque_scan(plan.cache, cells[SCAN_CELL], settings.bins, PUBLISHED[SCAN_CELL]["pic"])
+
+
+def precision_check(plan, results, settings) -> None:
+    """The study's float32 forward passes (``rwg.precision=float32``) beside float64 on the same policies and episodes:
+    each cell's change in its float64 bootstrap sd and, where the paper's sd is restated, in that."""
+    narrow = {e.id: r for e, r in zip(plan.entries, plan.requests, strict=True) if r.settings.precision != "float64"}
+    if not narrow:
+        return
+    wide = {task: dataclasses.replace(r, settings=dataclasses.replace(r.settings, precision="float64"))
+            for task, r in narrow.items()}
+    reference = study_metrics(plan.cache, list(wide.values()), settings, names=list(wide), progress=True)
+    print(f"\nrwg.precision=float32 against float64 (same policies, same episodes; {len(narrow)} of "
+          f"{len(results)} tasks, the others run float64):")
+    print(f"{'task':<26}{'PIC f64':>10}{'PIC f32':>10}{'Δ (boot sd)':>13}{'Δ (paper sd)':>14}"
+          f"{'POIC f64':>11}{'POIC f32':>11}{'Δ (boot sd)':>13}")
+    mine = {r.task_id: r.table("metrics.parquet").iloc[0] for r in results}
+    for result in reference:
+        a, b = result.table("metrics.parquet").iloc[0], mine[result.task_id]
+        paper = PUBLISHED.get(result.task_id, {}).get("pic")
+        in_paper = f"{(b['pic'] - a['pic']) / paper[1]:+.4f}" if paper else "—"
+        print(f"{result.task_id:<26}{a['pic']:10.5f}{b['pic']:10.5f}{(b['pic'] - a['pic']) / a['pic_sd']:+13.4f}"
+              f"{in_paper:>14}{a['poic']:11.6f}{b['poic']:11.6f}{(b['poic'] - a['poic']) / a['poic_sd']:+13.4f}")
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ from taskcomplexity.seeding import episode_uniforms
 from taskcomplexity.tasks import mechanics
 from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.dynamics import CONTACT_MODES
+from taskcomplexity.tasks.rollout_kernel import PRECISIONS
 from taskcomplexity.tasks.spec import TaskSpec
 
 BACKENDS = ("batched", "pybullet", "gym", "kernel")
@@ -81,6 +82,11 @@ class RWGSettings:
     common_initial_states : bool
         Episode e of every policy starts from the same state (reset by (seed, e) only: the original
         PIC/POIC protocol's common random numbers); false: by (seed, n, e).
+    precision : {'float64', 'float32'}
+        The arithmetic of the policies' forward pass on the batched backend (MLP families; the physics is always
+        float64). ``float32`` runs it about 1.5× faster, and the returns move by the rounding of the actions
+        (:func:`taskcomplexity.tasks.rollout_kernel.rollout`); it has its own keys. The obstacle task keeps
+        float64 (its contacts are chaotic: :class:`taskcomplexity.stages.rwg_stage.RWGRequest`).
     """
 
     policies: int = 1000
@@ -92,6 +98,7 @@ class RWGSettings:
     shards: int = setting(1, result=False)
     contacts: str = "pybullet"
     common_initial_states: bool = False
+    precision: str = "float64"
 
     def validate(self) -> None:
         if self.policies < 2:
@@ -106,6 +113,8 @@ class RWGSettings:
             raise ConfigError(f"rwg.chunk_memory_mb must be >= 1, got {self.chunk_memory_mb}")
         if self.contacts not in CONTACTS:
             raise ConfigError(f"rwg.contacts must be one of {list(CONTACTS)}, got {self.contacts!r}")
+        if self.precision not in PRECISIONS:
+            raise ConfigError(f"rwg.precision must be one of {list(PRECISIONS)}, got {self.precision!r}")
         if not 1 <= self.shards <= self.policies:
             raise ConfigError(f"rwg.shards must be in [1, rwg.policies={self.policies}], got {self.shards}")
         if not 0 <= self.shard < self.shards:
@@ -229,13 +238,14 @@ def simulate_chunk(
     joint_angles, target = initial_states(task, settings.seed, indices, settings.episodes,
                                           settings.common_initial_states)
     if backend == "batched":
-        return _simulate_batched(task, policies, joint_angles, target, settings.contacts, progress)
+        return _simulate_batched(task, policies, joint_angles, target, settings.contacts, progress,
+                                 precision=settings.precision)
     return _simulate_pybullet(task, policies, joint_angles, target)
 
 
 def _simulate_batched(
     task, policies: PolicyBatch | PrimitiveBatch, joint_angles, target, contacts: str = "pybullet",
-    progress: bool = False, *, fused: bool = True,
+    progress: bool = False, *, fused: bool = True, precision: str = "float64",
 ) -> ReturnChunk:
     """Every episode of the chunk on the batched backend.
 
@@ -243,6 +253,7 @@ def _simulate_batched(
     per environment, :meth:`BatchedReaching.rollout`); otherwise step by step, one batched
     :meth:`respond` of the policies and one :meth:`BatchedReaching.step` per environment step — the
     reference the fused rollout is tested and benchmarked against, and the movement primitives' path.
+    ``precision``: the fused forward pass's arithmetic (``float32`` needs the fused MLP path).
     """
     from taskcomplexity.tasks.batched import BatchedReaching
 
@@ -250,9 +261,11 @@ def _simulate_batched(
     env = BatchedReaching(task, n_pol * n_ep, contacts)
     obs = env.reset(torch.from_numpy(joint_angles.reshape(n_pol * n_ep, -1)), torch.from_numpy(target.reshape(-1, 2)))
     planned: dict[int, object] = {}  # flat environment → the policy's state where it was handed over
+    if precision != "float64" and not (fused and isinstance(policies, PolicyBatch)):
+        raise ValueError(f"precision={precision} runs on the fused rollout of an MLP family only")
     if fused and isinstance(policies, PolicyBatch):
         env.rollout(*policies.packed(), activation=policies.activation, output=policies.output,
-                    bias=policies.biases is not None, input_bias=policies.input_bias)
+                    bias=policies.biases is not None, input_bias=policies.input_bias, precision=precision)
     else:
         with torch.no_grad(), policies:  # closing the batch ends its forward-pass threads
             state = policies.begin(obs.view(n_pol, n_ep, -1))

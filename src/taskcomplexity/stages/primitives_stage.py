@@ -113,7 +113,7 @@ class PrimitivesSettings:
             return None
         rwg = study_request.settings
         rwg = dataclasses.replace(rwg, policies=self.policies or rwg.policies, episodes=self.episodes or rwg.episodes,
-                                  shard=0, shards=1)
+                                  shard=0, shards=1, precision="float64")  # rwg.precision is the MLPs' forward pass
         rwg.validate()
         backend = study_request.backend if study_request.backend != "gym" else "auto"
         return RWGRequest(study_request.task, self.network, self.prior, rwg, backend)

@@ -8,6 +8,7 @@ single job would have written (same key, same returns).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import shutil
@@ -66,6 +67,16 @@ class RWGRequest:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "backend", resolve_backend(self.task, str(self.backend), self.network))
+        if self.settings.precision != "float64":
+            if self.backend != "batched" or not isinstance(self.network, NetworkSpec):
+                raise ConfigError(f"rwg.precision={self.settings.precision} is the MLP forward pass of the batched "
+                                  f"backend (reaching arms); {self.task.task_id} runs backend={self.backend} with "
+                                  f"network.family={getattr(self.network, 'family', 'mlp')} (allowed there: float64)")
+            if self.task.arm.obstacle is not None:  # like rwg.contacts off the obstacle task: not this task's setting
+                log.debug("%s: the forward pass stays float64 under rwg.precision=%s (the block's contacts are "
+                          "chaotic: rounded actions would draw another sample of its returns)", self.task.task_id,
+                          self.settings.precision)
+                object.__setattr__(self, "settings", dataclasses.replace(self.settings, precision="float64"))
 
     def identity(self) -> dict:
         """What the key hashes: the task, the sampler, the backend and the RWG settings declared to change
@@ -83,6 +94,8 @@ class RWGRequest:
         }
         if not self.models_contacts:
             identity.pop("contacts")
+        if self.settings.precision == "float64":  # the keys from before the setting existed
+            identity.pop("precision")
         return identity
 
     @property
@@ -100,8 +113,9 @@ class RWGRequest:
     def label(self) -> str:
         s = self.settings
         contacts = " contact-model" if self.models_contacts else ""
+        precision = f" {s.precision}" if s.precision != "float64" else ""
         return (f"{self.task.task_id} {self.network.tag} {self.prior.kind} N={s.policies} M={s.episodes} "
-                f"seed={s.seed}{contacts}")
+                f"seed={s.seed}{contacts}{precision}")
 
 
 def _chunk_file(scratch: Path, start: int, stop: int) -> Path:

@@ -129,6 +129,7 @@ class BatchedReaching:
         output: str = "tanh",
         bias: bool = False,
         input_bias: bool = False,
+        precision: str = "float64",
     ) -> None:
         """Run every active environment's episode to its end, each under its own random MLP policy.
 
@@ -144,10 +145,13 @@ class BatchedReaching:
         layer_sizes : ndarray (L + 1,) int
         activation, output, bias, input_bias
             As in :class:`taskcomplexity.policies.NetworkSpec`.
+        precision : {'float64', 'float32'}
+            The forward pass's arithmetic (:func:`taskcomplexity.tasks.rollout_kernel.rollout`).
         """
         if self.size % len(weights):
             raise ValueError(f"{self.size} environments do not split evenly over {len(weights)} policies")
         rollout_kernel.rollout(
             self._kernel, self._state, weights, layer_sizes, episodes=self.size // len(weights),
             max_steps=self.task.max_steps, activation=activation, output=output, bias=bias, input_bias=input_bias,
+            precision=precision,
         )
