@@ -18,7 +18,9 @@ functions with the CPU's cycle counter around each; the cycles are scaled to the
 (a shared machine's waits spread over the components alike). ``real`` is the production kernel's CPU time
 per step on the same chunk, ``sum`` the split's total (the copy's overhead included).
 
-Floors, measured on this machine in the same run: forward, MACs per step over the rate of NumPy's matmul
+The forward pass runs in ``--precision`` (default float32, as ``make run`` runs it: ``rwg.precision`` of
+``experiment=published``; the obstacle task's in float64). Floors, measured on this machine in the same run:
+forward, MACs per step over the rate of NumPy's matmul (in the forward pass's precision)
 at the forward pass's shapes (one BLAS thread, 256 environments per product); physics and obs/reward,
 the same functions on 256 contiguous environments in a tight loop (no packing, no episode ends). The
 contact model has no floor here (its work depends on how many physics steps come near the block).
@@ -47,6 +49,7 @@ from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks import contact, rollout_kernel
 from taskcomplexity.tasks.batched import BatchedReaching
 from taskcomplexity.tasks.dynamics import BLOCK, integrate_block, inverse_mass_matrix, row_length, whole_vectors
+from taskcomplexity.tasks.rollout_kernel import PRECISIONS
 from taskcomplexity.tasks.spec import make_task
 from taskcomplexity.tasks.step_kernel import (
     begin_step,
@@ -97,7 +100,7 @@ def _timed_rollout(arm, p, zone, free_zone, weights, layer_sizes, relu, tanh_out
         w = weights[policy]
         index = np.empty(hi - lo, dtype=np.int64)
         columns = row_length(hi - lo)
-        h, g = np.zeros((width, columns)), np.zeros((width, columns))
+        h, g = np.zeros((width, columns), weights.dtype), np.zeros((width, columns), weights.dtype)
         goals = block_goals(p, state.target, lo, hi)
         for _ in range(max_steps):
             c0 = _cycles()
@@ -189,7 +192,7 @@ def forward_by_layer(weights, layer_sizes, observations, rate: float, repeats: i
     """
     n = observations.shape[0]
     columns = row_length(n)
-    buffers = [np.zeros((int(size), columns)) for size in layer_sizes]
+    buffers = [np.zeros((int(size), columns), weights.dtype) for size in layer_sizes]
     buffers[0][:, :n] = observations.T
     layers, off, out = len(layer_sizes) - 1, 0, []
     for k in range(layers):
@@ -203,7 +206,8 @@ def forward_by_layer(weights, layer_sizes, observations, rate: float, repeats: i
                     for _ in range(repeats))
         ns = products / rate / (reps * n) * 1e9
         out.append(dict(shape=f"{fan_in}→{fan_out}", macs=fan_in * fan_out, products=ns,
-                        activation=max(whole / rate / (reps * n) * 1e9 - ns, 0.0), gemm=gemm_rate([fan_in, fan_out]),
+                        activation=max(whole / rate / (reps * n) * 1e9 - ns, 0.0),
+                        gemm=gemm_rate([fan_in, fan_out], dtype=weights.dtype),
                         tanh=activation == 2))
         off += fan_in * fan_out
     return out
@@ -221,11 +225,11 @@ def _cycles_now():
     return _cycles()
 
 
-def gemm_rate(layer_sizes, columns: int = 256, repeats: int = 5) -> float:
-    """MAC/s of NumPy's matmul over the forward pass's layers (one BLAS thread), best of ``repeats``."""
+def gemm_rate(layer_sizes, columns: int = 256, repeats: int = 5, dtype=np.float64) -> float:
+    """MAC/s of NumPy's matmul over the forward pass's layers in ``dtype`` (one BLAS thread), best of ``repeats``."""
     rng = np.random.default_rng(0)
-    weights = [rng.normal(size=(b, a)) for a, b in zip(layer_sizes[:-1], layer_sizes[1:], strict=True)]
-    x = rng.normal(size=(layer_sizes[0], columns))
+    weights = [rng.normal(size=(b, a)).astype(dtype) for a, b in zip(layer_sizes[:-1], layer_sizes[1:], strict=True)]
+    x = rng.normal(size=(layer_sizes[0], columns)).astype(dtype)
     macs = sum(w.size for w in weights) * columns
     loops = max(1, int(2e8 // macs))
     best = np.inf
@@ -243,7 +247,7 @@ def gemm_rate(layer_sizes, columns: int = 256, repeats: int = 5) -> float:
 def forward_rate(weights, layer_sizes, columns: int = 256, repeats: int = 5) -> float:
     """MAC/s of the kernel's forward pass alone on ``columns`` environments, best of ``repeats``."""
     width = int(layer_sizes.max())
-    h = np.random.default_rng(1).normal(size=(width, columns))
+    h = np.random.default_rng(1).normal(size=(width, columns)).astype(weights.dtype)
     g = np.empty_like(h)
     macs = int((layer_sizes[:-1] * layer_sizes[1:]).sum()) * columns
     loops = max(1, int(1e8 // macs))
@@ -267,12 +271,12 @@ def chunk(task, policies: int, episodes: int):
     return env, batch
 
 
-def measure(task, policies: int, episodes: int):
+def measure(task, policies: int, episodes: int, precision: str):
     """(real ns/step, split ns/step per part, mean active environments per block step, touched share)."""
     env, batch = chunk(task, policies, episodes)
     weights, layer_sizes = batch.packed()
     started = time.process_time()
-    env.rollout(weights, layer_sizes)
+    env.rollout(weights, layer_sizes, precision=precision)
     real = (time.process_time() - started) / int(env.steps.sum()) * 1e9
 
     env, _ = chunk(task, policies, episodes)
@@ -280,7 +284,8 @@ def measure(task, policies: int, episodes: int):
     t = np.zeros(8, dtype=np.int64)
     state = env_state(env._state, np.zeros((policies * episodes, task.action_size)))
     started = time.process_time()
-    _timed_rollout(k.arm, k.task, k.zone, contact.no_contact(), weights, layer_sizes, True, True, episodes,
+    _timed_rollout(k.arm, k.task, k.zone, contact.no_contact(), weights.astype(PRECISIONS[precision]), layer_sizes,
+                   True, True, episodes,
                    task.max_steps, state, k.time_step, k.substeps, t)
     cpu = time.process_time() - started
     steps = int(env.steps.sum())
@@ -312,28 +317,33 @@ def main() -> None:
     parser.add_argument("--policies", type=int, default=100)
     parser.add_argument("--episodes", type=int, default=500)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--precision", choices=sorted(PRECISIONS), default="float32",
+                        help="the forward pass's (default: as make run runs it; the obstacle task stays float64)")
     args = parser.parse_args()
     numba.set_num_threads(1)
     rate = cycles_per_second()
 
     print(f"Fused RWG rollout, ns per environment step by part: N = {args.policies} × M = {args.episodes} per task, "
-          f"mlp32, one numba thread, median of {args.repeats} (CPU time; split by the cycle counter)")
+          f"mlp32, forward pass in {args.precision} (the obstacle task's in float64, as in make run), one numba "
+          f"thread, median of {args.repeats} (CPU time; split by the cycle counter)")
     print(f"{'task':<26}{'real':>7}{'sum':>7}" + "".join(f"{p:>12}" for p in PARTS) + f"{'envs/block':>12}")
     floors = {}
     for arm, reward in SEVEN_TASKS:
         task = make_task(arm, reward)
+        precision = "float64" if task.arm.obstacle is not None else args.precision  # as RWGRequest decides
         env, batch = chunk(task, 1, 4)
         weights, layer_sizes = batch.packed()
+        weights = weights.astype(PRECISIONS[precision])
         if arm not in floors:
-            gemm = gemm_rate(layer_sizes)
+            gemm = gemm_rate(layer_sizes, dtype=weights.dtype)
             own = forward_rate(weights[0], layer_sizes)
             macs = int((layer_sizes[:-1] * layer_sizes[1:]).sum())
-            floors[arm] = dict(gemm=gemm, own=own, macs=macs, forward=macs / gemm * 1e9)
+            floors[arm] = dict(gemm=gemm, own=own, macs=macs, forward=macs / gemm * 1e9, dtype=precision)
             floors[arm]["physics"], floors[arm]["obs/reward"] = isolated(task, rate)
             first, _ = chunk(task, 1, 256)
             floors[arm]["layers"] = forward_by_layer(weights[0], layer_sizes, first._state["observation"], rate)
-        measure(task, 2, 8)  # compile
-        runs = [measure(task, args.policies, args.episodes) for _ in range(args.repeats)]
+        measure(task, 2, 8, precision)  # compile
+        runs = [measure(task, args.policies, args.episodes, precision) for _ in range(args.repeats)]
         real = statistics.median(r[0] for r in runs)
         parts = np.median([r[1] for r in runs], axis=0)
         total = statistics.median(r[2] for r in runs)
@@ -352,11 +362,11 @@ def main() -> None:
                 f"{layer['shape']} {layer['products']:.0f} ns ({fraction:.2f})"
                 + (f" + tanh {layer['activation']:.0f} ns" if layer["tanh"] else "")
                 for layer, fraction in zip(floor["layers"], share, strict=True))
-            print(f"{'':<26}forward: each column's sums stay in input order (bit-identical returns). By layer, alone "
-                  "on 256 environments of a policy's first observations, ns per environment (and the share of "
-                  f"matmul's rate at the layer's shape): {layers}; the tanh is the C library's, scalar, one call per "
-                  "action (a vectorised tanh would not give its bits). Passes of 8 inputs instead of 4 and fused "
-                  "multiply-adds were tried side by side (no faster). In the rollout a block holds "
+            print(f"{'':<26}forward: each column's sums stay in input order (float64 returns bit for bit as before). "
+                  "By layer, alone on 256 environments of a policy's first observations, ns per environment (and the "
+                  f"share of matmul's rate at the layer's shape): {layers}; the tanh is the C library's, scalar, one "
+                  "call per action (a vectorised tanh would not give its bits). Passes of 8 inputs instead of 4 and "
+                  "fused multiply-adds were tried side by side (no faster). In the rollout a block holds "
                   f"{active:.0f} active environments on average, and each step adds its copies of the observations "
                   "in and the actions out")
         if parts[2] > 1.5 * floor["physics"]:
@@ -370,8 +380,9 @@ def main() -> None:
             print(f"{'':<26}contacts: no floor; exact gate, detection and solve per physics step, "
                   f"{touched:.1%} of the environment steps touched the block")
     print("\nfloors: " + "; ".join(
-        f"{arm}: matmul {f['gemm'] / 1e9:.1f} GMAC/s × {f['macs']} MACs/step → forward {f['forward']:.0f} ns, "
-        f"physics {f['physics']:.0f} ns, obs/reward {f['obs/reward']:.0f} ns" for arm, f in floors.items()))
+        f"{arm}: {f['dtype']} matmul {f['gemm'] / 1e9:.1f} GMAC/s × {f['macs']} MACs/step → forward "
+        f"{f['forward']:.0f} ns, physics {f['physics']:.0f} ns, obs/reward {f['obs/reward']:.0f} ns"
+        for arm, f in floors.items()))
 
 
 if __name__ == "__main__":
