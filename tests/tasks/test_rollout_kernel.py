@@ -230,3 +230,16 @@ def test_float32_is_refused_where_there_is_no_batched_mlp_forward_pass():
         RWGRequest(obstacle, NetworkSpec(), PriorSpec(), RWGSettings(policies=20, episodes=6)).key
     with pytest.raises(ConfigError, match=r"rwg\.precision must be one of \['float64', 'float32'\], got 'float16'"):
         RWGSettings(precision="float16").validate()
+
+
+def test_the_reports_methods_say_which_tasks_ran_a_float32_forward_pass():
+    from taskcomplexity.report.methods import float32_note
+    from taskcomplexity.rwg import RWGSettings
+    from taskcomplexity.stages.rwg_stage import RWGRequest
+
+    narrow = RWGSettings(policies=20, episodes=6, precision="float32")
+    requests = [RWGRequest(make_task(arm), NetworkSpec(), PriorSpec(), narrow)
+                for arm in ("one_link_1m0", "two_link", "two_link_obstacle")]
+    assert float32_note(requests) == "; the policies' forward pass in float32 on 2 of 3 tasks (the others float64)"
+    assert float32_note(requests[:2]) == "; the policies' forward pass in float32 on 2 of 2 tasks"
+    assert float32_note([RWGRequest(make_task("two_link"), NetworkSpec(), PriorSpec(), RWGSettings())]) == ""

@@ -33,6 +33,15 @@ def directions_text(data: StudyData) -> str:
                      for (way, why), labels in groups.items())
 
 
+def float32_note(requests) -> str:
+    """The methods box's words for tasks whose returns come from a float32 forward pass (``rwg.precision``), or ""."""
+    narrow = sum(getattr(r.settings, "precision", "float64") != "float64" for r in requests)
+    if not narrow:
+        return ""
+    rest = "" if narrow == len(requests) else " (the others float64)"
+    return f"; the policies' forward pass in float32 on {narrow} of {len(requests)} tasks{rest}"
+
+
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
     """(what, value) pairs of the methods box."""
     requests = [data.results[t].request for t in data.tasks]
@@ -50,7 +59,8 @@ def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -
                      f"episode, seed {joined(r.settings.seed for r in requests)}, "
                      f"backend {joined(r.backend for r in requests)}"
                      + ("; contacts from the batched contact model"
-                        if any(getattr(r, "models_contacts", False) for r in requests) else "")),
+                        if any(getattr(r, "models_contacts", False) for r in requests) else "")
+                     + float32_note(requests)),
         ("PIC", f"histogram with B = {int(metrics_config.get('bins', 0)):,} equal-width bins, nats"),
         ("POIC", "deterministic temperature search over λ ∈ "
                  f"[{', '.join(f'{x:g}' for x in metrics_config.get('temperature_range', []))}]"),
