@@ -7,11 +7,13 @@ after the warm-up, for:
 1. one seed (``train_sac``),
 2. five seeds trained together (``train_sac_seeds``, stacked parameters, one env per seed),
 3. two such five-seed runs at once in two processes (what a study does on a 2-core machine: ``sac.workers``,
-   one run per CPU by default), summed.
+   one run per CPU by default), summed;
+4. and 5. the same two with the batched kernel stepping the environments (``sac.backend=batched``), side by side.
 
 The projection divides the paper protocol's seed-steps (every task's budget × 5 seeds, plus the
 SAC+HER runs of the sparse tasks) by each throughput; a refined line corrects each task for its own
-environment-step cost (the 2-link arms step more slowly in PyBullet), measured with random actions.
+environment-step cost (the 2-link arms step more slowly in PyBullet), measured with random actions on the
+backend the run would use (the obstacle task keeps PyBullet under ``sac.backend=batched``).
 
 Timings are wall-clock; the "CPU share" column (process CPU time / wall time) shows how much of a
 core each run actually had — below ~0.95 the machine was busy with other work and the figures are
@@ -34,6 +36,7 @@ import taskcomplexity  # noqa: F401 - registers the tasks
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.rl import SACSettings, protocol_variants, train_sac, train_sac_seeds, with_budget
 from taskcomplexity.rl.factories import make_env
+from taskcomplexity.rl.settings import BACKENDS, env_backend
 from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.spec import make_task
 
@@ -58,7 +61,7 @@ def paper_runs() -> list[tuple[str, str, bool, int]]:
     return runs
 
 
-def measure(seeds: tuple[int, ...], steps: int) -> dict[str, float]:
+def measure(seeds: tuple[int, ...], steps: int, backend: str = "pybullet") -> dict[str, float]:
     """Steady-state seed-steps/s of one training run on the bench task (after a 1000-step warm-up)."""
     settings = SACSettings(
         total_steps=WARMUP + steps,
@@ -68,6 +71,7 @@ def measure(seeds: tuple[int, ...], steps: int) -> dict[str, float]:
         checkpoint_every=100_000,
         seeds=seeds,
         num_threads=1,
+        backend=backend,
     )
     task = make_task(*BENCH_TASK)
     wall, cpu = time.perf_counter(), time.process_time()
@@ -81,13 +85,17 @@ def measure(seeds: tuple[int, ...], steps: int) -> dict[str, float]:
     return {"rate": len(seeds) * steps / steady, "cpu_share": cpu / wall, "wall": wall}
 
 
-def _measure_worker(args: tuple[tuple[int, ...], int]) -> dict[str, float]:
+def _measure_worker(args: tuple[tuple[int, ...], int, str]) -> dict[str, float]:
     return measure(*args)
 
 
-def env_step_seconds(arm: str, reward: str, her: bool, instances: int = PAPER_SEEDS) -> float:
-    """Seconds per environment step and instance of ``make_env`` with random actions."""
-    env = make_env(make_task(arm, reward), instances, goal_conditioned=her)
+def env_step_seconds(arm: str, reward: str, her: bool, instances: int = PAPER_SEEDS,
+                     backend: str = "pybullet") -> float:
+    """Seconds per environment step and instance of ``make_env`` with random actions, on the backend a SAC run with
+    ``sac.backend=backend`` uses for the task."""
+    task = make_task(arm, reward)
+    used = env_backend(task, SACSettings(backend=backend))
+    env = make_env(task, instances, goal_conditioned=her, backend=used)
     try:
         with torch.random.fork_rng(devices=[]):
             torch.manual_seed(0)
@@ -211,28 +219,33 @@ def main() -> None:
 
     runs = paper_runs()
     seed_steps = sum(budget for *_, budget in runs) * PAPER_SEEDS
-    probe = {(arm, reward, her): env_step_seconds(arm, reward, her) for arm, reward, her, _ in runs}
-    reference = probe[(*BENCH_TASK, False)]
+    probe = {backend: {(arm, reward, her): env_step_seconds(arm, reward, her, backend=backend)
+                       for arm, reward, her, _ in runs} for backend in BACKENDS}
 
     load_before = os.getloadavg()[0]
     results: dict[str, dict[str, float]] = {}
-    results["1 seed"] = measure((0,), args.steps) | {"processes": 1}
-    results["5 seeds together"] = measure(tuple(range(PAPER_SEEDS)), args.steps) | {"processes": 1}
-    if not args.no_concurrent:
-        with multiprocessing.get_context("spawn").Pool(2) as pool:
-            pair = pool.map(_measure_worker, [(tuple(range(PAPER_SEEDS)), args.steps)] * 2)
-        results["2 processes × 5 seeds"] = {
-            "rate": sum(r["rate"] for r in pair),
-            "cpu_share": sum(r["cpu_share"] for r in pair) / 2,
-            "wall": max(r["wall"] for r in pair),
-            "processes": 2,
-        }
+    results["1 seed"] = measure((0,), args.steps) | {"processes": 1, "backend": "pybullet"}
+    five = tuple(range(PAPER_SEEDS))
+    for backend in BACKENDS:  # side by side: PyBullet, then the batched kernel stepping the environments
+        suffix = "" if backend == "pybullet" else ", batched"
+        results[f"5 seeds together{suffix}"] = measure(five, args.steps, backend) | {"processes": 1,
+                                                                                      "backend": backend}
+        if not args.no_concurrent:
+            with multiprocessing.get_context("spawn").Pool(2) as pool:
+                pair = pool.map(_measure_worker, [(five, args.steps, backend)] * 2)
+            results[f"2 processes × 5 seeds{suffix}"] = {
+                "rate": sum(r["rate"] for r in pair),
+                "cpu_share": sum(r["cpu_share"] for r in pair) / 2,
+                "wall": max(r["wall"] for r in pair),
+                "processes": 2,
+                "backend": backend,
+            }
     load_after = os.getloadavg()[0]
 
     print(f"\nSAC throughput on {'-'.join(BENCH_TASK)}: one update per step, batch 64, 2×256 MLPs, "
           f"evaluation 10 episodes / 1000 steps; torch {torch.__version__}, {os.cpu_count()} CPUs, "
           f"1 torch thread per process, load average {load_before:.1f} → {load_after:.1f}\n")
-    header = f"{'configuration':<24} {'seed-steps/s':>12} {'CPU share':>9} {'paper protocol':>15} {'refined':>9}"
+    header = f"{'configuration':<33} {'seed-steps/s':>12} {'CPU share':>9} {'paper protocol':>15} {'refined':>9}"
     print(header)
     print("-" * len(header))
     for name, result in results.items():
@@ -240,11 +253,13 @@ def main() -> None:
         # refined: each run pays its own env-step cost instead of the bench task's (shared by the
         # processes running at once)
         per_step = 1.0 / rate
+        costs = probe[result["backend"]]
+        reference = costs[(*BENCH_TASK, False)]
         refined = sum(
-            budget * PAPER_SEEDS * (per_step + (probe[(arm, reward, her)] - reference) / result["processes"])
+            budget * PAPER_SEEDS * (per_step + (costs[(arm, reward, her)] - reference) / result["processes"])
             for arm, reward, her, budget in runs
         )
-        print(f"{name:<24} {rate:12.0f} {result['cpu_share']:9.2f} {hours(seed_steps / rate):>15} {hours(refined):>9}")
+        print(f"{name:<33} {rate:12.0f} {result['cpu_share']:9.2f} {hours(seed_steps / rate):>15} {hours(refined):>9}")
     print(
         f"\npaper protocol: {len(runs)} runs (7 tasks + SAC+HER on 3 sparse tasks) × {PAPER_SEEDS} seeds = "
         f"{seed_steps:,} seed-steps; projection = seed-steps / throughput (warm-up counted at full cost)."
@@ -263,8 +278,13 @@ def main() -> None:
           f"{1e3 * update['SACLoss']:.1f} ms, direct (what training runs) {1e3 * update['direct']:.1f} ms: "
           f"{update['SACLoss'] / update['direct']:.2f}× (the same numbers: tests/rl/test_objective.py); "
           f"{PAPER_SEEDS * per_step / update['direct'] / 1e9:.1f} GMAC/s in the direct update")
-    print("env step cost per instance (random actions, 5 instances): "
-          + ", ".join(f"{a}-{r}{'+her' if h else ''} {1e6 * s:.0f} µs" for (a, r, h), s in probe.items()))
+    for backend, costs in probe.items():
+        print(f"env step cost per instance, {backend} (random actions, 5 instances; the obstacle task on PyBullet): "
+              + ", ".join(f"{a}-{r}{'+her' if h else ''} {1e6 * s:.0f} µs" for (a, r, h), s in costs.items()))
+    pybullet, batched = (results.get(f"2 processes × 5 seeds{s}") for s in ("", ", batched"))
+    if pybullet and batched:
+        print(f"two runs at once: batched environments {batched['rate'] / pybullet['rate']:.2f}× the seed-steps/s of "
+              "PyBullet, measured side by side in this run")
     sys.stdout.flush()
 
 

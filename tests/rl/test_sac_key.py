@@ -14,7 +14,8 @@ CHANGED = {  # a valid different value of every field
     "tau": 0.01, "loss_function": "smooth_l1", "batch_size": 32, "buffer_size": 5000, "updates_per_step": 2,
     "collect_steps": 20, "warmup_steps": 200, "eval_every": 200, "eval_episodes": 3, "total_steps": 4000,
     "budget_fraction": 0.5, "seeds": (0, 1), "train_seeds_together": False, "her": True, "her_ratio": 0.5, "her_strategy": "final",
-    "checkpoint_every": 400, "num_threads": 2, "workers": 2, "device": "cpu", "entry": "two_link-sparse",
+    "checkpoint_every": 400, "num_threads": 2, "workers": 2, "device": "cpu", "backend": "batched",
+    "entry": "two_link-sparse",
 }
 # enabled: read by the study only, it decides whether SAC runs, not what it computes; budget_fraction:
 # with_budget resolves it into total_steps, which is hashed (test_settings.py checks the resolution);

@@ -98,14 +98,17 @@ def success_info_key(task: Task) -> str | None:
 
 
 def make_env(
-    task: Task, num_envs: int, *, goal_conditioned: bool, success_key: str | None = None
+    task: Task, num_envs: int, *, goal_conditioned: bool, success_key: str | None = None, backend: str = "pybullet"
 ) -> TransformedEnv:
     """``num_envs`` independent instances of ``task`` stepped together, as one TorchRL environment.
 
-    A gymnasium ``SyncVectorEnv`` (auto-reset disabled: TorchRL resets finished instances itself) of
-    :func:`one_env` wrapped by :class:`~torchrl.envs.GymWrapper`, with ``DoubleToFloat`` (float32
-    observations) and ``RewardSum`` (``episode_reward``: the return so far). Batch size ``(num_envs,)``.
-    With ``success_key``, the env's ``info[success_key]`` is read into the tensordicts under that key.
+    A gymnasium vector env with auto-reset disabled (TorchRL resets finished instances itself) wrapped by
+    :class:`~torchrl.envs.GymWrapper`, with ``DoubleToFloat`` (float32 observations) and ``RewardSum``
+    (``episode_reward``: the return so far). Batch size ``(num_envs,)``. The vector is a ``SyncVectorEnv`` of
+    :func:`one_env`, or with ``backend="batched"`` (:func:`taskcomplexity.rl.settings.env_backend`) a
+    :class:`~taskcomplexity.tasks.batched_vector.BatchedReachingVector`: the same draws, steps and episode ends,
+    computed by one kernel call. With ``success_key``, the env's ``info[success_key]`` is read into the
+    tensordicts under that key.
 
     Seed it through its reset: ``env.reset(seed=[...])`` (one seed per instance).
     """
@@ -113,9 +116,14 @@ def make_env(
     def one() -> gymnasium.Env:
         return one_env(task, goal_conditioned=goal_conditioned)
 
-    vector = gymnasium.vector.SyncVectorEnv(
-        [one] * num_envs, autoreset_mode=gymnasium.vector.AutoresetMode.DISABLED
-    )
+    if backend == "batched":
+        from taskcomplexity.tasks.batched_vector import BatchedReachingVector
+
+        vector = BatchedReachingVector(task, num_envs, goal_conditioned=goal_conditioned)
+    else:
+        vector = gymnasium.vector.SyncVectorEnv(
+            [one] * num_envs, autoreset_mode=gymnasium.vector.AutoresetMode.DISABLED
+        )
     base = GymWrapper(vector)
     if success_key is not None:
         flag = Categorical(2, shape=(num_envs, 1), dtype=torch.bool)

@@ -16,6 +16,8 @@ HER_STRATEGIES = ("future", "final", "episode", "random")
 DEVICES = ("auto", "cpu", "cuda")
 """Values of ``sac.device``: ``auto`` is CUDA where torch sees a CUDA device, else the CPU."""
 LOSS_FUNCTIONS = ("l2", "l1", "smooth_l1")
+BACKENDS = ("pybullet", "batched")
+"""Values of ``sac.backend``: what steps a contact-free reaching arm's environments (see :func:`env_backend`)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +88,13 @@ class SACSettings:
         ``auto`` is CUDA where torch sees a CUDA device, else the CPU. Not hashed itself: the resolved device
         enters the key (and a checkpoint's identity) only when it is not the CPU (:func:`resolve_device`), so
         every CPU curve keeps its key, and CUDA's curves (other kernels, other rounding) get their own.
+    backend : {'pybullet', 'batched'}
+        What steps a reaching arm's environments (training and evaluation): ``pybullet``, the reference, or
+        ``batched``, the fused kernel of :mod:`taskcomplexity.tasks.batched_vector` (equal to PyBullet to 1e-6
+        per step on the contact-free tasks). ``batched`` applies to the contact-free reaching arms only: the
+        obstacle task (its contacts need PyBullet's solver) and gymnasium tasks keep their own environments
+        and their keys. Not hashed itself: where it applies, ``{"backend": "batched"}`` enters the key
+        (:func:`backend_identity`), so every PyBullet curve keeps its key.
     entry : str or None
         ``pipelines/sac.py`` only: the id of a study task whose every SAC run the study would make (its
         variants, at its budget) is trained, the task composed as the study composes it (one job of
@@ -118,6 +127,7 @@ class SACSettings:
     num_threads: int = 1
     workers: int = setting(0, result=False)
     device: str = setting("auto", result=False)
+    backend: str = setting("pybullet", result=False)
     entry: str | None = setting(None, result=False)
 
     @property
@@ -153,6 +163,8 @@ class SACSettings:
             raise ConfigError(f"{where}.device must be one of {list(DEVICES)}, got {self.device!r}")
         if self.device == "cuda":
             resolve_device(self.device, where)  # refused here, before any work, where torch sees no CUDA device
+        if self.backend not in BACKENDS:
+            raise ConfigError(f"{where}.backend must be one of {list(BACKENDS)}, got {self.backend!r}")
         if self.entry is not None and (not isinstance(self.entry, str) or not self.entry):
             raise ConfigError(f"{where}.entry must be a study task's id or null, got {self.entry!r}")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds) or min(self.seeds) < 0:
@@ -200,6 +212,23 @@ def device_identity(settings: SACSettings) -> dict:
     """What the device adds to a run's identity: nothing on the CPU, ``{"device": "cuda"}`` on a GPU."""
     device = resolve_device(settings.device)
     return {} if device.type == "cpu" else {"device": device.type}
+
+
+def env_backend(task, settings: SACSettings) -> str:
+    """What steps ``task``'s environments in a SAC run: ``"batched"`` where ``settings.backend`` asks for it and
+    the task is a contact-free reaching arm, else ``"pybullet"`` for a reaching arm and ``"gymnasium"`` for any
+    other task (its own env)."""
+    if not isinstance(task, TaskSpec):
+        return "gymnasium"
+    if settings.backend == "batched" and task.arm.obstacle is None:
+        return "batched"
+    return "pybullet"
+
+
+def backend_identity(task, settings: SACSettings) -> dict:
+    """What the environment backend adds to a run's identity: ``{"backend": "batched"}`` where the kernel steps
+    the environments, nothing on PyBullet (every PyBullet curve keeps its key) or a task's own env."""
+    return {"backend": "batched"} if env_backend(task, settings) == "batched" else {}
 
 
 def _check(where: str, name: str, value, allowed: str, ok) -> None:

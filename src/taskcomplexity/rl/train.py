@@ -71,7 +71,14 @@ from taskcomplexity.rl.factories import (
     success_info_key,
 )
 from taskcomplexity.rl.objective import SACObjective
-from taskcomplexity.rl.settings import SACSettings, device_identity, resolve_device, sac_skip_reason
+from taskcomplexity.rl.settings import (
+    SACSettings,
+    backend_identity,
+    device_identity,
+    env_backend,
+    resolve_device,
+    sac_skip_reason,
+)
 from taskcomplexity.rl.snapshots import ActorSnapshots, actor_layers
 from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task
@@ -258,12 +265,14 @@ class _Run:
         with _torch_threads(s.num_threads), _owned_global_rng():
             env = eval_env = collector = None
             try:
-                env = make_env(self.task, num_seeds, goal_conditioned=self.goal_conditioned)
+                backend = env_backend(self.task, s)
+                env = make_env(self.task, num_seeds, goal_conditioned=self.goal_conditioned, backend=backend)
                 eval_env = make_env(
                     self.task,
                     num_seeds * s.eval_episodes,
                     goal_conditioned=self.goal_conditioned,
                     success_key=self.success_key,
+                    backend=backend,
                 )
                 actor, critics = make_actor_critic(
                     self.task, hidden_sizes=s.hidden_sizes, seeds=self.seeds, goal_conditioned=self.goal_conditioned,
@@ -430,10 +439,11 @@ class _Run:
     # -- checkpoints ---------------------------------------------------------------------------
     def _identity(self) -> dict[str, Any]:
         settings = dataclasses.asdict(self.settings)
-        for name in ("num_threads", "enabled", "workers", "device"):  # how fast (or whether), not what; device: below
+        for name in ("num_threads", "enabled", "workers", "device", "backend"):  # how fast (or whether), not what;
+            # device and backend: below
             settings.pop(name)
         identity = {"format": CHECKPOINT_FORMAT, "task": repr(self.task), "settings": repr(settings),
-                    **device_identity(self.settings)}
+                    **device_identity(self.settings), **backend_identity(self.task, self.settings)}
         if self.solved_return is not None:  # changes eval/success_rate
             identity["solved_return"] = self.solved_return
         return identity

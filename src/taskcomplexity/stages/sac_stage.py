@@ -23,7 +23,7 @@ import pandas as pd
 
 from taskcomplexity.config import build, result_identity
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.rl.settings import SACSettings, device_identity, sac_skip_reason, with_budget
+from taskcomplexity.rl.settings import SACSettings, backend_identity, device_identity, sac_skip_reason, with_budget
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.stage import SEEDS, Judged, Stage, StudyWork
@@ -36,7 +36,8 @@ NUMERICS = Numerics(version=1, modules=(
     "rl.settings", "rl.train", "rl.factories", "rl.layers", "rl.objective", "rl.her", "rl.evaluation", "rl.snapshots",
     "policies.mlp",
     "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.pybullet_env",
-    "tasks.goal_env", "tasks.gym_task", "stages.sac_stage",
+    "tasks.goal_env", "tasks.gym_task", "tasks.batched_vector", "tasks.batched", "tasks.step_kernel", "tasks.dynamics",
+    "tasks.rollout_kernel", "tasks.contact", "stages.sac_stage",
 ))
 CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
@@ -50,11 +51,13 @@ MISSING_ATTR = "sac_missing"
 
 def sac_identity(task, settings, *, solved_return: float | None = None) -> dict:
     """What a SAC artefact is a function of: the task's identity, the settings (budget resolved) and, off the CPU,
-    the device (:func:`taskcomplexity.rl.settings.device_identity`).
+    the device (:func:`taskcomplexity.rl.settings.device_identity`); where the batched kernel steps the environments,
+    the backend (:func:`taskcomplexity.rl.settings.backend_identity`).
 
     ``solved_return`` (the study's threshold for envs that report no success) enters only when set.
     """
-    identity = {"task": task.identity(), "settings": result_identity(settings), **device_identity(settings)}
+    identity = {"task": task.identity(), "settings": result_identity(settings), **device_identity(settings),
+                **backend_identity(task, settings)}
     if solved_return is not None:
         identity["solved_return"] = float(solved_return)
     return identity
