@@ -60,3 +60,30 @@ def test_the_backend_enters_the_key_only_where_the_kernel_steps_the_environments
 def test_an_unknown_backend_is_refused_naming_the_key():
     with pytest.raises(ConfigError, match=r"sac\.backend must be one of \['pybullet', 'batched'\], got 'bullet'"):
         SACSettings(backend="bullet").validate()
+
+
+def _plan(tmp_path, study):
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from omegaconf import open_dict
+
+    from taskcomplexity.cli import CONF_DIR
+    from taskcomplexity.study.plan import read_plan
+
+    overrides = [f"study={study}", "experiment=smoke", "sac.enabled=true", "sac.total_steps=100",
+                 "sac.backend=batched"]
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        cfg = compose("config", overrides=overrides)
+    GlobalHydra.instance().clear()
+    with open_dict(cfg):
+        cfg.paths.outputs = str(tmp_path)
+        cfg.paths.cache = str(tmp_path / "cache")
+    return read_plan(cfg)
+
+
+def test_a_study_without_a_contact_free_arm_refuses_the_batched_backend(tmp_path):
+    with pytest.raises(ConfigError, match="sac.backend=batched steps the environments of contact-free reaching arms"):
+        _plan(tmp_path, "classic_control")
+    assert not (tmp_path / "cache").exists()  # refused before any work
+    assert _plan(tmp_path, "seven_tasks") is not None  # six of its seven tasks step on the kernel, the obstacle not

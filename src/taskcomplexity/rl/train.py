@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import math
 import random
 import time
@@ -84,6 +85,8 @@ from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task
 from taskcomplexity.tasks.goal_env import goal_layout
 from taskcomplexity.tasks.spec import TaskSpec
+
+log = logging.getLogger(__name__)
 
 CURVE_COLUMNS = (
     "task",
@@ -266,6 +269,8 @@ class _Run:
             env = eval_env = collector = None
             try:
                 backend = env_backend(self.task, s)
+                if s.backend != backend:
+                    log.info("sac.backend=%s: %s keeps %s environments", s.backend, self.task.task_id, backend)
                 env = make_env(self.task, num_seeds, goal_conditioned=self.goal_conditioned, backend=backend)
                 eval_env = make_env(
                     self.task,

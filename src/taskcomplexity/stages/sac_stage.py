@@ -23,7 +23,14 @@ import pandas as pd
 
 from taskcomplexity.config import build, result_identity
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.rl.settings import SACSettings, backend_identity, device_identity, sac_skip_reason, with_budget
+from taskcomplexity.rl.settings import (
+    SACSettings,
+    backend_identity,
+    device_identity,
+    env_backend,
+    sac_skip_reason,
+    with_budget,
+)
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.stage import SEEDS, Judged, Stage, StudyWork
@@ -341,6 +348,9 @@ def _check_sac(settings: SACSettings, study, requests, typed: list[str]) -> None
     for entry, request in zip(study.tasks, requests, strict=True):
         if sac_skip_reason(request.task) is None:
             with_budget(settings, entry.sac_steps, task_id=entry.id)
+    if settings.backend == "batched" and not any(env_backend(r.task, settings) == "batched" for r in requests):
+        raise ConfigError(f"sac.backend=batched steps the environments of contact-free reaching arms, and study "
+                          f"{study.name} has none (its tasks keep their own environments): drop it")
 
 
 RECORD = Stage(STAGE, NUMERICS, (CURVES,), _sac, group="sac", settings=SACSettings, check=_check_sac,
