@@ -269,7 +269,7 @@ class _Run:
             env = eval_env = collector = None
             try:
                 backend = env_backend(self.task, s)
-                if s.backend != backend:
+                if s.backend == "batched" and backend != "batched":
                     log.info("sac.backend=%s: %s keeps %s environments", s.backend, self.task.task_id, backend)
                 env = make_env(self.task, num_seeds, goal_conditioned=self.goal_conditioned, backend=backend)
                 eval_env = make_env(
