@@ -1,8 +1,9 @@
-"""Beyond the paper: does each metric its conclusion proposes agree where PIC and POIC contradict?
+"""Beyond the paper: does each metric its conclusion proposes agree where PIC and POIC do not?
 
 Everything here is derived from the verdict artefact and the registry: the metrics of the family
 :data:`~taskcomplexity.metrics.registry.BEYOND` are compared, relation by relation, with the primary
-metrics (PIC, POIC).
+metrics (PIC, POIC). The relations left open are those no primary metric agrees with: one contradicts it,
+or each is uninformative (its value measures the estimator: the information check) or not significant.
 """
 
 from __future__ import annotations
@@ -29,8 +30,29 @@ def _relation(data: StudyData, row) -> str:
     return f"{row['kind'].replace('_', ' ')}: {data.name(row['easier'])} < {data.name(row['harder'])}"
 
 
+RELATION = ["easier", "harder", "kind"]
+"""The columns that name a known relation in the verdict table."""
+
+VERB = {"contradict": "contradicts", "agree": "agrees"}
+"""An outcome as a verb after a metric's name; the others read as they are ("PIC uninformative")."""
+
+
+def left_open(verdict: pd.DataFrame, primary: list[str]) -> pd.DataFrame:
+    """The known relations no primary metric agrees with, in the verdict's order.
+
+    ``verdict``: the verdict table (one row per metric and relation, ``outcome`` among
+    :data:`~taskcomplexity.verdict.OUTCOMES`). Returns one row per such relation: ``easier``, ``harder``,
+    ``kind`` and, per primary metric, its outcome there (column named by the metric).
+    """
+    outcomes = verdict[verdict["metric"].isin(primary)].pivot_table(
+        index=RELATION, columns="metric", values="outcome", aggfunc="first", sort=False)
+    relations = verdict[RELATION].drop_duplicates().merge(outcomes.reset_index(), on=RELATION, how="left")
+    agreed = (relations[[m for m in primary if m in relations]] == "agree").any(axis=1)
+    return relations[~agreed].reset_index(drop=True)
+
+
 def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None = None) -> list[str]:
-    """Where PIC and POIC contradict the known relations, then one sentence per proposed metric.
+    """Where PIC and POIC leave the known relations open, then one sentence per proposed metric.
 
     ``missing``: stage → what it needs, said of a metric of that stage none of whose values was computed.
     """
@@ -38,17 +60,20 @@ def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None =
     proposed = [m for m in registry if m.family == BEYOND]
     primary = [m.name for m in registry if m.primary and (verdict["metric"] == m.name).any()]
     names = " and ".join(registry.label(m) for m in primary)
-    relations = verdict[["easier", "harder", "kind"]].drop_duplicates()
-    failing = verdict[verdict["metric"].isin(primary) & (verdict["outcome"] == "contradict")]
-    failing = failing[["easier", "harder", "kind"]].drop_duplicates()
+    relations = verdict[RELATION].drop_duplicates()
+    unanswered = left_open(verdict, primary)
     known = "known relation"
-    either = names.replace(" and ", " or ")
-    if failing.empty:
-        sentences = [f"{names} contradict {of_total(0, len(relations), known)} here, so no proposed metric has a "
-                     "contradiction to resolve; their own records follow."]
+    if unanswered.empty:
+        sentences = [f"{names} leave no {known} open (one of them agrees with each), so no proposed metric has "
+                     "a relation to settle; their own records follow."]
     else:
-        listed = "; ".join(_relation(data, r) for _, r in failing.iterrows())
-        sentences = [f"{either} contradicts {of_total(len(failing), len(relations), known)} ({listed})."]
+        listed = "; ".join(
+            _relation(data, r) + " (" + ", ".join(f"{registry.label(m)} {VERB.get(r[m], r[m])}" for m in primary
+                                                  if isinstance(r.get(m), str)) + ")"
+            for _, r in unanswered.iterrows())
+        leave = "leaves" if len(primary) == 1 else "leave"
+        none = {1: "it does not agree", 2: "neither agrees"}.get(len(primary), "none of them agrees")
+        sentences = [f"{names} {leave} {of_total(len(unanswered), len(relations), known)} open ({none}): {listed}."]
     for metric in proposed:
         own = verdict[verdict["metric"] == metric.name]
         label = metric.label[:1].upper() + metric.label[1:]
@@ -61,12 +86,12 @@ def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None =
             sentence = f"{label} on the one {known}: {own['outcome'].iloc[0]}"
         else:
             sentence = f"{label} agrees with {of_total(agree, len(own), known)} and contradicts {contradict}"
-        if not failing.empty:
-            rescued = failing.merge(own, on=["easier", "harder", "kind"])
-            rescued = rescued[rescued["outcome"] == "agree"]
-            where = "; ".join(_relation(data, r) for _, r in rescued.iterrows())
-            sentence += (f"; where {either} contradicts, it agrees on "
-                         f"{of_total(len(rescued), len(failing), 'such relation')}" + (f" ({where})" if where else ""))
+        if not unanswered.empty:
+            answered = unanswered[RELATION].merge(own, on=RELATION)
+            answered = answered[answered["outcome"] == "agree"]
+            where = "; ".join(_relation(data, r) for _, r in answered.iterrows())
+            share = of_total(len(answered), len(unanswered), "such relation")
+            sentence += f"; of those left open it agrees with {share}" + (f" ({where})" if where else "")
         sentences.append(sentence + ".")
     return sentences
 

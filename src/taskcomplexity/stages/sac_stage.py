@@ -119,12 +119,13 @@ def run_sac_stage(
     return cache.get_or_compute(STAGE, key, write, config=identity, force=force, after=cleanup)
 
 
-SEED_STEPS_PER_SECOND = 245.0
+SEED_STEPS_PER_SECOND = 217.0
 """Training throughput of one of the protocol's runs, environment steps per second summed over the seeds of the
 run (five seeds trained together, one gradient update per step, evaluations included), with a core of its own:
-``bench/bench_sac.py`` measured 245 seed-steps/s for one run alone and 489 for two at once on the 2-core
-development machine (a fresh clone at a115682, 2026-11-27). The basis of the upfront estimate of `make paper`,
-which trains ``sac.workers`` runs at once; the bench measures it on yours."""
+the median over `make paper`'s ten runs on the 2-core development machine, two at a time (2026-11-27, the
+curves' training clock over windows of 20 000 steps not slowed by other work; ``bench/bench_sac.py``, on the
+1-link dense task alone, gave 245 for one run and 489 for two at once). The basis of the upfront estimate of
+`make paper`, which trains ``sac.workers`` runs at once; the bench measures it on yours."""
 
 
 def training_plan(cache: Cache, runs, workers: int = 1) -> str:
