@@ -67,30 +67,36 @@ class BatchedReaching:
             )
         }
 
-    def reset(self, joint_angles: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        """Start every environment from the given state (velocities 0).
+    def reset(
+        self, joint_angles: torch.Tensor, target: torch.Tensor, index: torch.Tensor | None = None
+    ) -> torch.Tensor:
+        """Start the environments ``index`` (every one when None) from the given state (velocities 0).
 
         Parameters
         ----------
-        joint_angles : Tensor (B, dof), rad
-        target : Tensor (B, 2)
+        joint_angles : Tensor (n, dof), rad
+        target : Tensor (n, 2)
             Polar target (ρ in m, angle in rad).
+        index : Tensor (n,) of int, optional
+            The environments to start; the others keep their state. n = B without it.
 
         Returns
         -------
-        Tensor (B, obs_size): the first observation.
+        Tensor (B, obs_size): the observation buffer, the started environments' first observation in their rows.
         """
-        self.joint_angles.copy_(joint_angles)
-        self.joint_velocities.zero_()
-        self.target.copy_(target)
-        self.active.fill_(True)
-        self.returns.zero_()
-        self.steps.zero_()
-        self.success.fill_(False)
-        self.handoff.fill_(False)
-        self.contact.fill_(False)
-        observation, *_ = mechanics.observe(self.task, self.joint_angles, self.joint_velocities, self.target)
-        self.observation.copy_(observation)
+        at = slice(None) if index is None else index
+        self.joint_angles[at] = joint_angles
+        self.joint_velocities[at] = 0.0
+        self.target[at] = target
+        self.active[at] = True
+        self.returns[at] = 0.0
+        self.steps[at] = 0
+        for flags in (self.success, self.handoff, self.contact, self.done):
+            flags[at] = False
+        self.reward[at] = 0.0
+        observation, *_ = mechanics.observe(self.task, self.joint_angles[at], self.joint_velocities[at],
+                                            self.target[at])
+        self.observation[at] = observation
         return self.observation
 
     def step(self, action: torch.Tensor):

@@ -101,7 +101,7 @@ class BatchedReachingVector(gymnasium.vector.VectorEnv):
                 self._rngs[i], _ = np_random(seed[i])
             uniforms[row] = self._rngs[i].random(4)
         joint_angles, target = mechanics.initial_state(self.task.arm, uniforms)
-        self._reset_instances(torch.from_numpy(index), torch.from_numpy(joint_angles), torch.from_numpy(target))
+        self._batch.reset(torch.from_numpy(joint_angles), torch.from_numpy(target), index=torch.from_numpy(index))
         return self._observations(), {}
 
     def step(self, actions):
@@ -112,21 +112,6 @@ class BatchedReachingVector(gymnasium.vector.VectorEnv):
         return self._observations(), reward.numpy().copy(), done.numpy().copy(), truncated.copy(), {}
 
     # -- pieces --------------------------------------------------------------------------------
-    def _reset_instances(self, index: torch.Tensor, joint_angles: torch.Tensor, target: torch.Tensor) -> None:
-        """Start the instances ``index`` from (joint angles (n, dof), polar target (n, 2)), velocities 0."""
-        b = self._batch
-        b.joint_angles[index] = joint_angles
-        b.joint_velocities[index] = 0.0
-        b.target[index] = target
-        b.active[index] = True
-        b.returns[index] = 0.0
-        b.steps[index] = 0
-        for flags in (b.success, b.handoff, b.contact, b.done):
-            flags[index] = False
-        b.reward[index] = 0.0
-        observation, *_ = mechanics.observe(self.task, joint_angles, b.joint_velocities[index], target)
-        b.observation[index] = observation
-
     def _observations(self):
         observation = self._batch.observation.numpy().copy()
         return split_observation(self.task, observation) if self.goal_conditioned else observation
