@@ -25,3 +25,10 @@ def compose_config(tmp_path):
 
     yield _compose
     GlobalHydra.instance().clear()
+
+
+def pytest_report_header(config):
+    """The kernels this run computes with (numba's target, NumPy's dispatch, torch's capability, the BLAS)."""
+    from cpu_paths import describe
+
+    return f"CPU code paths: {describe()}"
