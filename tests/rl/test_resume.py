@@ -6,6 +6,8 @@ column identical bit for bit, except ``time/seconds`` (wall-clock).
 
 from __future__ import annotations
 
+import logging
+
 import pandas as pd
 import pytest
 
@@ -51,3 +53,15 @@ def test_the_same_call_gives_the_same_curve_with_or_without_checkpoints(uninterr
     # the environments are reset at checkpoint boundaries whether or not a directory is given
     with_checkpoints = train_sac_seeds(TASK, SETTINGS, checkpoint_dir=tmp_path)
     pd.testing.assert_frame_equal(with_checkpoints[DETERMINISTIC], uninterrupted[DETERMINISTIC], check_exact=True)
+
+
+def test_a_resumed_run_says_where_it_resumes(tmp_path, caplog):
+    tiny = SACSettings(total_steps=60, warmup_steps=20, eval_every=30, eval_episodes=1, checkpoint_every=30,
+                       seeds=(0,), hidden_sizes=(16, 16))
+    task = make_task("one_link_1m0", "dense")
+    with caplog.at_level(logging.INFO, logger="taskcomplexity"):
+        train_sac_seeds(task, tiny, checkpoint_dir=tmp_path, stop_after=30)
+        assert not [r for r in caplog.records if "resuming" in r.getMessage()]  # a fresh run does not
+        train_sac_seeds(task, tiny, checkpoint_dir=tmp_path)
+    resumed = [r.getMessage() for r in caplog.records if "resuming" in r.getMessage()]
+    assert resumed == ["resuming one_link_1m0-dense sac seed 0 from its checkpoint at step 30 of 60"]

@@ -27,7 +27,9 @@ on: its resumed runs start from fresh PyBullet worlds). Hence: a run interrupted
 point and restarted with the same arguments produces **exactly the same curve** as an uninterrupted
 run — every column bit for bit except ``time/seconds`` (wall-clock) — provided it runs on the same
 machine with the same torch build and thread count (floating-point reductions may differ across
-thread counts or CPUs). Work since the last checkpoint is redone. The forced reset truncates the
+thread counts or CPUs). Work since the last checkpoint is redone. A checkpoint carries the SHA-256 of
+its bytes (:mod:`taskcomplexity.rl.checkpoint`): a damaged one is discarded with a warning and its
+run starts afresh, which gives the same curve again. The forced reset truncates the
 episode in progress at each boundary (one episode per ``checkpoint_every`` steps and seed); that
 transition is stored as truncated (not terminated), so the critic's targets are unaffected, and it
 bounds the episode for HER.
@@ -482,7 +484,17 @@ class _Run:
             optimiser.load_state_dict(saved)
         for buffer, saved in zip(buffers, checkpoint["buffers"], strict=True):
             buffer.load_state_dict(saved)
-        return _Progress(**checkpoint["progress"]), checkpoint["rng"]
+        state = _Progress(**checkpoint["progress"])
+        if state.step < self.total:
+            log.info("resuming %s from its checkpoint at step %d of %d", self._label(), state.step, self.total)
+        else:
+            log.info("%s: its checkpoint holds the finished run (step %d of %d)", self._label(), state.step, self.total)
+        return state, checkpoint["rng"]
+
+    def _label(self) -> str:
+        """The run in log lines: task, variant and seeds ("one_link_1m0-dense sac seeds 0, 1")."""
+        seeds = f"seed {self.seeds[0]}" if len(self.seeds) == 1 else f"seeds {', '.join(map(str, self.seeds))}"
+        return f"{self.task.task_id} {self.settings.variant} {seeds}"
 
     def _start_rng(self, rng: dict[str, Any] | None) -> None:
         """Seed the global generators from the seeds (fresh run) or restore their saved states."""
