@@ -14,10 +14,13 @@ import functools
 import logging
 import os
 import re
+import signal
 import sys
+import threading
 from importlib import resources
 from pathlib import Path
 
+import yaml
 from omegaconf import OmegaConf
 from omegaconf.errors import InterpolationKeyError
 
@@ -31,6 +34,7 @@ NOT_GROUPS = ("hydra",)
 EXIT_BAD_INPUT = 2
 EXIT_DISK_FULL = 3
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 128 + signal.SIGTERM
 
 log = logging.getLogger("taskcomplexity")
 
@@ -90,12 +94,16 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
 
 
 def check_output_paths(argv: list[str]) -> None:
-    """Refuse, in one line, output and cache paths that cannot be written, however they are given
-    (``paths.outputs=…``, ``paths.cache=…`` or ``TASKCOMPLEXITY_OUTPUTS``), before Hydra creates its run
-    directory there."""
-    from taskcomplexity.stages.cache import ensure_writable
+    """Refuse, in one line, output and cache paths that are empty or cannot be written, however they are given
+    (``paths.outputs=…``, ``paths.cache=…`` or ``TASKCOMPLEXITY_OUTPUTS``), and a full disk under them, before
+    Hydra creates its run directory there. An existing cache that is read-only is accepted: it serves what it
+    holds (:meth:`~taskcomplexity.stages.cache.Cache.require_writable` refuses anything it lacks)."""
+    from taskcomplexity.stages.cache import check_free_space, ensure_writable, read_only
 
     given = dict(arg.lstrip("+~").split("=", 1) for arg in argv[1:] if "=" in arg and not arg.startswith("-"))
+    for key in ("paths.outputs", "paths.cache"):
+        if key in given and not given[key].strip():
+            fail(f"{key} is empty (allowed: a directory path; the default is outputs, or $TASKCOMPLEXITY_OUTPUTS)")
     outputs = given.get("paths.outputs") or os.environ.get("TASKCOMPLEXITY_OUTPUTS") or "outputs"
     checks = [("paths.outputs", outputs)]
     if "paths.cache" in given:
@@ -104,9 +112,15 @@ def check_output_paths(argv: list[str]) -> None:
         if "," in value or "$" in value:  # a sweep or an interpolation: Hydra resolves it per job
             continue
         try:
+            if key == "paths.cache" and read_only(Path(value)):
+                continue
             ensure_writable(Path(value), key=key)
+            check_free_space(Path(value))
         except TaskComplexityError as err:
             fail(str(err))
+        except OSError as err:
+            disk_full(err)
+            raise
 
 
 FREE_FORM = ("task.kwargs", "study.reference", "study.algorithm_scores", "study.orders")
@@ -145,6 +159,8 @@ def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
     try:
         with initialize_config_dir(config_dir=str(dirs[0]), version_base="1.3"):
             compose("config", overrides=searchpath + settings)
+    except yaml.YAMLError as err:
+        return invalid_yaml(err)
     except (HydraException, OmegaConfBaseException) as err:
         cause = err.__cause__ if err.__cause__ is not None else err
         full_key = getattr(cause, "full_key", None)
@@ -165,6 +181,15 @@ def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
     return None
 
 
+def invalid_yaml(err: yaml.YAMLError) -> str:
+    """One line for a config file that is not valid YAML: the file, the line and column, what is wrong."""
+    mark = getattr(err, "problem_mark", None)
+    where = f"{mark.name}, line {mark.line + 1}, column {mark.column + 1}" if mark is not None else "a config file"
+    what = " ".join(str(getattr(err, "problem", None) or err).split())
+    context = getattr(err, "context", None)
+    return f"{where} is not valid YAML: {what}" + (f" ({' '.join(context.split())})" if context else "")
+
+
 def missing_interpolation(err: InterpolationKeyError) -> str:
     """One line for a ``${key}`` the composed config does not hold (the key that asked, what it wanted)."""
     wanted = str(err.msg).split("'")[1] if "'" in str(err.msg) else str(err.msg)
@@ -175,19 +200,39 @@ def missing_interpolation(err: InterpolationKeyError) -> str:
     return line
 
 
+class Terminated(BaseException):
+    """SIGTERM arrived (``kill``, a cluster's time limit, ``docker stop``): unwinds like Ctrl-C."""
+
+
+def _terminated(signum, frame) -> None:
+    raise Terminated
+
+
+def disk_full(err: OSError, where: str | None = None) -> None:
+    """Exit with the disk-full line (status 3) if ``err`` is a full disk; return otherwise."""
+    if err.errno != errno.ENOSPC and "No space left on device" not in str(err):
+        return
+    where = err.filename or where or "the outputs directory"
+    print(f"error: disk full while writing {where}; free some space and rerun the same command to resume",
+          file=sys.stderr, flush=True)
+    raise SystemExit(EXIT_DISK_FULL) from None
+
+
 def one_line_errors(fn):
     """Entry points only: the project's input errors become one line and exit status 2.
 
     Only :class:`~taskcomplexity.errors.TaskComplexityError` (bad config values, unknown ids, damaged
     artefacts) is shortened; anything else is a bug and keeps its traceback (exit status 1).
-    ``HYDRA_FULL_ERROR=1`` shows the traceback of input errors too. Two faults are not bugs and end
-    in one line too, with the finished work kept for the rerun: Ctrl-C (exit 130) and a full disk
-    (exit 3).
+    ``HYDRA_FULL_ERROR=1`` shows the traceback of input errors too. Three faults are not bugs and end
+    in one line too, with the finished work kept for the rerun: Ctrl-C (exit 130), SIGTERM (exit 143)
+    and a full disk (exit 3).
     """
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         logging.captureWarnings(True)  # warnings go to the run log (conf/hydra/job_logging), not the console
+        main_thread = threading.current_thread() is threading.main_thread()  # signals reach the main thread only
+        previous = signal.signal(signal.SIGTERM, _terminated) if main_thread else None
         try:
             return fn(*args, **kwargs)
         except TaskComplexityError as err:
@@ -201,13 +246,15 @@ def one_line_errors(fn):
         except KeyboardInterrupt:
             print("interrupted; rerun the same command to resume", file=sys.stderr, flush=True)
             raise SystemExit(EXIT_INTERRUPTED) from None
+        except Terminated:
+            print("terminated (SIGTERM); rerun the same command to resume", file=sys.stderr, flush=True)
+            raise SystemExit(EXIT_TERMINATED) from None
         except OSError as err:
-            if err.errno != errno.ENOSPC and "No space left on device" not in str(err):
-                raise
-            where = err.filename or f"the outputs directory {_outputs_of(args)}"
-            print(f"error: disk full while writing {where}; free some space and rerun the same command to resume",
-                  file=sys.stderr, flush=True)
-            raise SystemExit(EXIT_DISK_FULL) from None
+            disk_full(err, f"the outputs directory {_outputs_of(args)}")
+            raise
+        finally:
+            if main_thread:
+                signal.signal(signal.SIGTERM, previous)
 
     return wrapper
 

@@ -11,3 +11,8 @@ class ConfigError(TaskComplexityError, ValueError):
 
 class ArtefactError(TaskComplexityError):
     """A cached artefact is missing, incomplete or corrupt."""
+
+
+class EnvError(TaskComplexityError):
+    """An environment raised while it was reset or stepped; the message names the env, where it raised (policy,
+    episode, step) and its own exception, which is chained (``__cause__``) so its traceback reaches the run log."""

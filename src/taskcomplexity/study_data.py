@@ -26,6 +26,7 @@ Example::
 
 from __future__ import annotations
 
+import graphlib
 import math
 import re
 from collections.abc import Mapping
@@ -224,6 +225,7 @@ def study_from_config(node: Any) -> Study:
         if task_id in ids[:i]:
             raise ConfigError(f"study.tasks[{i}].id={task_id} is used twice (give each entry its own id)")
     relations = tuple(_relation(r, i, ids) for i, r in enumerate(node.get("relations") or []))
+    _refuse_cycles(relations)
     orders = {}
     for order_name, order in (node.get("orders") or {}).items():
         if not isinstance(order, list) or len(order) < 2:
@@ -344,6 +346,19 @@ def _relation(node: Any, i: int, ids: list[str]) -> Relation:
     if node["easier"] == node["harder"]:
         raise ConfigError(f"{where} relates task {node['easier']} to itself")
     return Relation(str(node["easier"]), str(node["harder"]), str(node.get("kind") or "known"))
+
+
+def _refuse_cycles(relations: tuple[Relation, ...]) -> None:
+    """Refuse relations that contradict each other: a chain of "easier than" that returns to its start."""
+    graph: dict[str, set[str]] = {}
+    for relation in relations:
+        graph.setdefault(relation.harder, set()).add(relation.easier)
+    try:
+        tuple(graphlib.TopologicalSorter(graph).static_order())
+    except graphlib.CycleError as err:
+        cycle = err.args[1]
+        raise ConfigError(f"study.relations contradict each other: {' < '.join(cycle)} (a task cannot be "
+                          "easier than itself; remove or reverse one of these relations)") from None
 
 
 def _known(where: str, task_id: Any, ids: list[str]) -> None:

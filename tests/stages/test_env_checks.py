@@ -1,6 +1,8 @@
 """A researcher's env that breaks what a cached return matrix relies on is refused in one line, exit 2,
 with nothing left under the cache: NaN rewards, a reset that ignores its seed, observations of the wrong
-shape (issue 29, item 5). A well-behaved env of the same package still runs."""
+shape (issue 29, item 5), rewards that are not one number, steps that draw random numbers outside the env's
+seeded generator. An env that raises ends in one line too, naming where, with its traceback in the run log and the
+chunks of the policies done kept. A well-behaved env of the same package still runs, and so do the built-in envs."""
 
 from __future__ import annotations
 
@@ -15,7 +17,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from taskcomplexity.errors import TaskComplexityError
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.rwg.env_checks import check_env
 from taskcomplexity.seeding import episode_reset_seeds
+from taskcomplexity.stages.cache import Cache
+from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_stage
+from taskcomplexity.tasks.gym_task import GymTask
+from taskcomplexity.tasks.spec import make_task
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -49,13 +59,17 @@ PACKAGE = textwrap.dedent('''
             return -abs(self.x)
 
 
-    class NanReward(Line):
-        """NaN reward at step 3 of the episodes that start right of x = 0.9."""
+    class FarStart(Line):
+        """Remembers where its episode started (``start``)."""
 
         def reset(self, *, seed=None, options=None):
             obs, info = super().reset(seed=seed)
             self.start = self.x
             return obs, info
+
+
+    class NanReward(FarStart):
+        """NaN reward at step 3 of the episodes that start right of x = 0.9."""
 
         def _reward(self):
             return float("nan") if self.t == 3 and self.start > 0.9 else -abs(self.x)
@@ -87,8 +101,50 @@ PACKAGE = textwrap.dedent('''
             return np.array([self.x, self.t / 10.0]) if self.t < 2 else np.float64(self.x)
 
 
+    class Boom(FarStart):
+        """Raises in step 5 of the episodes that start right of x = 0.9."""
+
+        def step(self, action):
+            if self.t == 4 and self.start > 0.9:
+                raise ValueError("boom")
+            return super().step(action)
+
+
+    class EarlyBoom(Line):
+        """Raises in step 5 of every episode."""
+
+        def step(self, action):
+            if self.t == 4:
+                raise ValueError("boom")
+            return super().step(action)
+
+
+    class ArrayReward(Line):
+        """The reward as an array of one number."""
+
+        def _reward(self):
+            return np.array([-abs(self.x)])
+
+
+    class PairReward(Line):
+        """Two numbers as the reward."""
+
+        def _reward(self):
+            return np.array([-abs(self.x), 0.0])
+
+
+    class GlobalRandom(Line):
+        """Kicks the point with NumPy's global generator in every step, not with its seeded self.np_random."""
+
+        def step(self, action):
+            self.x += 0.01 * np.random.normal()
+            return super().step(action)
+
+
     for name, cls in [("Line", Line), ("NanReward", NanReward), ("Unseeded", Unseeded),
-                      ("WrongShape", WrongShape), ("LateWrongShape", LateWrongShape)]:
+                      ("WrongShape", WrongShape), ("LateWrongShape", LateWrongShape), ("Boom", Boom),
+                      ("EarlyBoom", EarlyBoom), ("ArrayReward", ArrayReward), ("PairReward", PairReward),
+                      ("GlobalRandom", GlobalRandom)]:
         gymnasium.register(f"Lab{name}-v0", entry_point=cls, max_episode_steps=8)
 ''')
 
@@ -132,11 +188,11 @@ def leftovers(lab: Path) -> list[str]:
     return sorted(p.name for p in cache.iterdir()) if cache.exists() else []
 
 
-def first_nan(lab: Path) -> tuple[int, int]:
-    """(policy, episode) of the first NaN reward: the first episode, in the pool's order (policy-major, every
-    episode in flight at once at this N, M), that starts right of x = 0.9."""
+def first_far_start(lab: Path) -> tuple[int, int]:
+    """(policy, episode) of the first NaN reward of NanReward and the first exception of Boom: the first episode,
+    in the pool's order (policy-major, every episode in flight at once at this N, M), that starts right of x = 0.9."""
     module = importlib.import_module("lab_checks")
-    env = module.NanReward()
+    env = module.FarStart()
     for policy in range(POLICIES):
         for episode in range(EPISODES):
             env.reset(seed=int(episode_reset_seeds(0, np.array([policy]), np.array([episode]))[0]))
@@ -146,7 +202,7 @@ def first_nan(lab: Path) -> tuple[int, int]:
 
 
 def test_nan_rewards_are_refused_naming_policy_episode_and_step_and_nothing_is_cached(lab):
-    policy, episode = first_nan(lab)
+    policy, episode = first_far_start(lab)
     assert policy > 0 and episode > 0, "the test should tell the policy and the episode from the pool's slot"
     line = refusal(rwg(lab, "NanReward"))
     assert line == (f"error: task.env_id=lab_checks:LabNanReward-v0 returned a non-finite reward (nan) at policy "
@@ -186,3 +242,80 @@ def test_a_well_behaved_env_of_the_same_package_still_runs_and_is_cached(lab):
     frame = pd.read_parquet(returns)
     assert len(frame) == POLICIES * EPISODES and np.isfinite(frame["return"]).all()
     assert (frame["steps"] == 8).all()
+
+
+def request(env: str, **settings) -> RWGRequest:
+    """The RWG request of ``lab_checks:Lab<env>-v0`` at this file's N, M on the gym backend."""
+    return RWGRequest(GymTask(f"lab_checks:Lab{env}-v0"), NetworkSpec(), PriorSpec(),
+                      RWGSettings(policies=POLICIES, episodes=EPISODES, **settings), backend="gym")
+
+
+def check_seed() -> int:
+    """The reset seed of the first episode the check before RWG replays (policy 0's episode 0 at seed 0)."""
+    return int(episode_reset_seeds(0, np.array([0]), np.array([0]))[0])
+
+
+def test_an_env_raising_in_step_ends_in_one_line_naming_policy_episode_step_and_its_message(lab):
+    policy, episode = first_far_start(lab)
+    line = refusal(rwg(lab, "Boom"))
+    start = (f"error: task.env_id=lab_checks:LabBoom-v0 raised in step 5 of episode {episode} of policy {policy}: "
+             f"ValueError: boom (the traceback is in the run log ")
+    assert line.startswith(start) and line.endswith(")"), line
+    run_log = Path(line[len(start):-1])
+    assert run_log.is_file(), line
+    assert "Traceback" in run_log.read_text() and 'raise ValueError("boom")' in run_log.read_text()
+    assert not [name for name in leftovers(lab) if name.startswith(".partial-")]
+
+
+def test_an_env_raising_in_the_check_before_rwg_ends_in_one_line_and_nothing_is_cached(lab):
+    line = refusal(rwg(lab, "EarlyBoom"))
+    assert line.startswith(f"error: task.env_id=lab_checks:LabEarlyBoom-v0 raised in step 5 after reset(seed="
+                           f"{check_seed()}) of the env check before RWG: ValueError: boom (the traceback is in the "
+                           f"run log "), line
+    assert leftovers(lab) == []
+
+
+def test_saved_chunks_of_the_policies_done_stay_when_the_env_raises_and_an_empty_scratch_goes(lab, tmp_path):
+    policy, _ = first_far_start(lab)
+    cache = Cache(tmp_path / "chunked")
+    with pytest.raises(TaskComplexityError, match=f"raised in step 5 of episode .* of policy {policy}: ") as raised:
+        run_rwg_stage(cache, request("Boom", chunk_policies=1))
+    assert isinstance(raised.value.__cause__, ValueError)
+    scratch = cache.root / "rwg" / f".partial-{request('Boom').key}"
+    assert sorted(p.name for p in scratch.iterdir()) == [f"chunk-{n:07d}-{n + 1:07d}.npz" for n in range(policy)]
+    cache = Cache(tmp_path / "one_chunk")
+    with pytest.raises(TaskComplexityError, match="ValueError: boom"):
+        run_rwg_stage(cache, request("Boom"))
+    assert not list((cache.root / "rwg").glob(".partial-*"))
+
+
+def test_a_reward_of_one_number_in_an_array_gives_the_returns_of_the_float_reward(lab, tmp_path):
+    array, _ = run_rwg_stage(Cache(tmp_path / "array"), request("ArrayReward"))
+    number, _ = run_rwg_stage(Cache(tmp_path / "float"), request("Line"))
+    np.testing.assert_array_equal(load_returns(array), load_returns(number))
+
+
+def test_a_reward_of_more_than_one_number_is_refused_naming_env_type_and_shape(lab):
+    line = refusal(rwg(lab, "PairReward"))
+    assert line == (f"error: task.env_id=lab_checks:LabPairReward-v0 returned a reward of type ndarray, shape (2,) "
+                    f"at step 1 after reset(seed={check_seed()}) of the env check before RWG; a reward must be one "
+                    f"number (a float, an int, or an array holding one number)")
+    assert leftovers(lab) == []
+
+
+def test_an_env_drawing_global_random_numbers_in_step_is_refused_as_not_reproducible(lab):
+    line = refusal(rwg(lab, "GlobalRandom"))
+    assert line == (f"error: task.env_id=lab_checks:LabGlobalRandom-v0 is not reproducible: two replays of the "
+                    f"episode reset with seed {check_seed()}, with the same actions, gave a different observation at "
+                    f"step 1 (does the env draw random numbers outside its seeded generator self.np_random, or keep "
+                    f"state its reset does not restore?), so the cache cannot serve its returns")
+    assert leftovers(lab) == []
+
+
+@pytest.mark.parametrize("task", [
+    GymTask("CartPole-v1"), GymTask("Pendulum-v1"), GymTask("MountainCar-v0"), GymTask("MountainCarContinuous-v0"),
+    GymTask("Acrobot-v1"), GymTask("taskcomplexity/NoisyCartPole-v0", {"dynamics_noise": 0.3}),
+    make_task("one_link_1m0", "sparse"), make_task("two_link_obstacle", "dense"),
+], ids=lambda task: task.task_id)
+def test_the_built_in_envs_pass_the_checks_before_rwg(task):
+    check_env(task, 0)

@@ -83,3 +83,59 @@ def test_unwritable_output_and_cache_paths_are_one_line_however_given(tmp_path):
     assert by_key.returncode == 2
     assert by_key.stderr.strip().splitlines() == [f"error: paths.cache: cannot write to {blocker / 'cache'} "
                                                   "(Not a directory)"]
+
+
+def study(args: list[str], tmp_path: Path) -> subprocess.CompletedProcess:
+    environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
+    return subprocess.run([sys.executable, str(ROOT / "pipelines" / "study.py"), *args], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300, env=environment)
+
+
+def test_an_empty_output_or_cache_path_is_one_line_and_nothing_is_written_at_the_root(tmp_path):
+    for key in ("paths.outputs", "paths.cache"):
+        done = run(["task=cartpole", "rwg.policies=2", "rwg.episodes=2", f"{key}="], tmp_path)
+        assert done.returncode == 2, done.stderr[-2000:]
+        assert done.stderr.strip().splitlines() == [
+            f"error: {key} is empty (allowed: a directory path; the default is outputs, or $TASKCOMPLEXITY_OUTPUTS)"]
+    assert not Path("/cache").exists() and not Path("/runs").exists()
+
+
+def _own_study(tmp_path: Path, text: str) -> list[str]:
+    (tmp_path / "conf" / "study").mkdir(parents=True)
+    (tmp_path / "conf" / "study" / "mine.yaml").write_text(textwrap.dedent(text))
+    return ["study=mine", f"hydra.searchpath=[file://{tmp_path / 'conf'}]", f"paths.outputs={tmp_path / 'out'}"]
+
+
+def test_a_study_file_that_is_not_yaml_is_one_line_naming_the_file_line_and_column(tmp_path):
+    args = _own_study(tmp_path, """\
+        name: mine
+        tasks: [{task: cartpole}, {task: pendulum}
+        relations:
+          - {easier: cartpole, harder: pendulum}
+        """)
+    done = study(args, tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        f"error: {tmp_path / 'conf' / 'study' / 'mine.yaml'}, line 3, column 1 is not valid YAML: expected ',' or "
+        "']', but got '<scalar>' (while parsing a flow sequence)"]
+    assert not (tmp_path / "out" / "cache").exists()
+
+
+def test_relations_that_go_round_in_a_cycle_are_refused_in_one_line_before_any_work(tmp_path):
+    args = _own_study(tmp_path, """\
+        name: mine
+        tasks: [{task: cartpole}, {task: pendulum}, {task: acrobot}]
+        relations:
+          - {easier: cartpole, harder: pendulum, kind: a}
+          - {easier: pendulum, harder: acrobot, kind: b}
+          - {easier: acrobot, harder: cartpole, kind: c}
+        """)
+    done = study([*args, "experiment=smoke"], tmp_path)
+    assert done.returncode == 2, done.stderr[-2000:]
+    line = done.stderr.strip().splitlines()
+    assert len(line) == 1 and line[0].startswith("error: study.relations contradict each other: ")
+    cycle = line[0].split(": ", 2)[2].split(" (")[0].split(" < ")
+    assert cycle[0] == cycle[-1] and set(cycle) == {"cartpole", "pendulum", "acrobot"}
+    relations = {("cartpole", "pendulum"), ("pendulum", "acrobot"), ("acrobot", "cartpole")}
+    assert all(pair in relations for pair in zip(cycle, cycle[1:], strict=False))  # each "<" is a stated relation
+    assert not list((tmp_path / "out").rglob("*.parquet"))

@@ -18,6 +18,11 @@ from taskcomplexity.study.run import run_study
         ("report.title=5", r"report\.title must be a string or null \(the study's own title\), got 5"),
         ("sac.actor_lr=-1", r"sac\.actor_lr must be a finite number > 0, got -1"),
         ("metrics.bins=1", r"metrics\.bins must be an integer >= 2"),
+        # tables beyond this machine's memory: the estimate, not a NumPy MemoryError in the middle of the study
+        ("metrics.bins=1e15", r"metrics\.bins = 1,000,000,000,000,000 needs about [\d,.]+ TB of memory, this "
+                              r"machine has [\d.]+ GB \(lower it; metrics\.bins=auto gives B = "),
+        ("metrics.resamples=1e12", r"metrics\.resamples × N = 1,000,000,000,000 × \d+ needs about [\d,.]+ TB of "
+                                   r"memory, this machine has [\d.]+ GB \(lower metrics\.resamples\)"),
     ],
 )
 def test_a_bad_late_stage_setting_is_refused_before_any_artefact_is_written(compose_config, override, message):

@@ -2,25 +2,97 @@
 
 A cached return matrix is a promise that the same (task, policy n, episode e, seed) gives the same
 returns again, and that the returns are numbers. A researcher's own env can break that promise in ways
-the RWG loop would otherwise turn into silent garbage or a traceback deep in NumPy: a ``reset`` that
-ignores its seed (a rerun gives other returns), observations that do not match the declared observation
-space, rewards that are NaN or infinite. Each is refused with :class:`EnvContractError`, whose message
-names the env id and what it did.
+the RWG loop would otherwise turn into silent garbage or a traceback deep in NumPy: a ``reset`` or a
+``step`` that draws random numbers its seed does not fix (a rerun gives other returns), observations that
+do not match the declared observation space, rewards that are not one finite number. Each is refused with
+:class:`EnvContractError`, whose message names the env id and what it did.
+
+An exception the env itself raises in ``reset`` or ``step`` becomes an :class:`~taskcomplexity.errors.EnvError`
+naming where it raised (policy, episode, step) and the env's own message; the env's traceback goes to the
+run log.
 """
 
 from __future__ import annotations
 
+import logging
+
+import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from taskcomplexity.errors import TaskComplexityError
+from taskcomplexity.errors import EnvError, TaskComplexityError
 from taskcomplexity.seeding import episode_reset_seeds
-from taskcomplexity.tasks.base import Task, encode_observations
+from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
+
+log = logging.getLogger(__name__)
+
+CHECK_EPISODES = 2
+"""Episodes the check of steps replays: policy 0's first ones, reset with the run's seeds."""
+CHECK_STEPS = 20
+"""Steps of each replayed episode at most (fewer when it ends sooner or the task's limit is shorter)."""
+SCALAR_KINDS = "biuf"
+"""NumPy dtype kinds of a reward: bool, signed and unsigned integer, float."""
 
 
 class EnvContractError(TaskComplexityError):
-    """An environment breaks what a cached return matrix relies on (seeded resets, observations in the
-    declared space, finite rewards); the message names the env id and what it returned."""
+    """An environment breaks what a cached return matrix relies on (seeded resets and steps, observations in
+    the declared space, rewards that are one finite number); the message names the env id and what it returned."""
+
+
+def run_log() -> str:
+    """Where a traceback logged at DEBUG is kept, for messages: ``the run log <path>`` (the root logger's file,
+    which an entry point's job logging sets up), or ``the run log`` when no file is configured."""
+    for handler in logging.getLogger().handlers:
+        if isinstance(handler, logging.FileHandler):
+            return f"the run log {handler.baseFilename}"
+    return "the run log"
+
+
+def env_raised(task: Task, error: Exception, where: str) -> EnvError:
+    """The :class:`EnvError` of an exception the env raised at ``where``; its traceback goes to the run log (DEBUG:
+    the file, not the console). Raise the result ``from error`` so the traceback stays attached."""
+    log.debug("task.env_id=%s raised in %s", task.env_id, where, exc_info=error)
+    text = " ".join(str(error).split())  # one line, whatever the env's message looks like
+    own = f"{type(error).__name__}: {text}" if text else type(error).__name__
+    return EnvError(f"task.env_id={task.env_id} raised in {where}: {own} (the traceback is in {run_log()})")
+
+
+def _place(call: str, policy: int | None, episode: int | None) -> str:
+    """``call`` located in the run (``of episode e of policy n``) or in the check before it (no policy)."""
+    if policy is None:
+        return f"{call} of the env check before RWG"
+    return f"{call} of episode {episode} of policy {policy}"
+
+
+def reset_env(task: Task, env: gymnasium.Env, seed: int, *, policy: int | None = None,
+              episode: int | None = None) -> np.ndarray:
+    """The observation of ``env.reset(seed=seed)``, checked against the declared space (:func:`check_observation`).
+
+    ``policy`` and ``episode`` say which episode starts, for messages (None: the check before RWG).
+    """
+    try:
+        observation = env.reset(seed=seed)[0]
+    except TaskComplexityError:
+        raise
+    except Exception as error:
+        raise env_raised(task, error, _place(f"reset(seed={seed})", policy, episode)) from error
+    return check_observation(task, observation, seed=seed, policy=policy, episode=episode)
+
+
+def step_env(task: Task, env: gymnasium.Env, action, step: int, *, policy: int | None = None,
+             episode: int | None = None, seed: int | None = None) -> tuple:
+    """``env.step(action)``, as the env returns it; an exception the env raises becomes an :class:`EnvError`.
+
+    ``step`` counts from 1; ``policy`` and ``episode`` (in the run) or ``seed`` (the reset seed, in the check
+    before RWG) say where, for messages.
+    """
+    try:
+        return env.step(action)
+    except TaskComplexityError:
+        raise
+    except Exception as error:
+        call = f"step {step}" if policy is not None else f"step {step} after reset(seed={seed})"
+        raise env_raised(task, error, _place(call, policy, episode)) from error
 
 
 def check_observation(task: Task, observation, *, seed: int | None = None, policy: int | None = None,
@@ -47,9 +119,26 @@ def check_observation(task: Task, observation, *, seed: int | None = None, polic
                            f"not match the declared observation space {space}")
 
 
+def reward_value(task: Task, reward, where: str) -> float:
+    """The reward as a float: a number, or the one value of an array holding one number (``np.array([r])``
+    gives the same float as ``r``); anything else is refused, naming ``where`` it was returned."""
+    if isinstance(reward, (float, int, np.floating, np.integer)):  # bool is an int
+        return float(reward)
+    value = np.asarray(reward)
+    if value.size == 1 and value.dtype.kind in SCALAR_KINDS:
+        return float(value.reshape(()))
+    seen = f"type {type(reward).__name__}"
+    if value.ndim:
+        seen += f", shape {value.shape}"
+    if value.dtype.kind not in SCALAR_KINDS:
+        seen += f", dtype {value.dtype}"
+    raise EnvContractError(f"task.env_id={task.env_id} returned a reward of {seen} at {where}; a reward must be "
+                           f"one number (a float, an int, or an array holding one number)")
+
+
 def check_reward(task: Task, reward, policy: int, episode: int, step: int) -> float:
-    """The reward as a float, refused when it is NaN or infinite (``step`` counts from 1)."""
-    value = float(reward)
+    """The reward as a float (:func:`reward_value`), refused when it is NaN or infinite (``step`` counts from 1)."""
+    value = reward_value(task, reward, f"policy {policy}, episode {episode}, step {step}")
     if not np.isfinite(value):
         raise EnvContractError(f"task.env_id={task.env_id} returned a non-finite reward ({value}) at policy "
                                f"{policy}, episode {episode}, step {step}; returns must be finite to be cached")
@@ -57,18 +146,79 @@ def check_reward(task: Task, reward, policy: int, episode: int, step: int) -> fl
 
 
 def check_env(task: Task, seed: int) -> None:
-    """Before any return is computed: the reset observation is in the declared space, and two resets with
-    the same seed give the same observation (else the cache could not serve the returns again)."""
-    reset_seed = int(episode_reset_seeds(seed, np.array([0]), np.array([0]))[0])
+    """Before any return is computed: the env's resets and steps are seeded (:func:`check_resets`,
+    :func:`check_steps`), else the cache could not serve its returns again."""
     env = task.make_env()
     try:
-        first = check_observation(task, env.reset(seed=reset_seed)[0], seed=reset_seed)
-        again = check_observation(task, env.reset(seed=reset_seed)[0], seed=reset_seed)
+        check_resets(task, env, seed)
+        check_steps(task, env, seed)
     finally:
         env.close()
+
+
+def check_resets(task: Task, env: gymnasium.Env, seed: int) -> None:
+    """The reset observation is in the declared space, and two resets with the same seed give the same one."""
+    reset_seed = int(episode_reset_seeds(seed, np.array([0]), np.array([0]))[0])
+    first = reset_env(task, env, reset_seed)
+    again = reset_env(task, env, reset_seed)
     space = task.observation_space
     if not np.array_equal(encode_observations(space, first[None]), encode_observations(space, again[None]),
                           equal_nan=True):
         raise EnvContractError(f"task.env_id={task.env_id} is not reproducible: two resets with seed {reset_seed} "
                                f"gave different observations (the env's reset ignores its seed), so the cache "
                                f"cannot serve its returns")
+
+
+def check_steps(task: Task, env: gymnasium.Env, seed: int) -> None:
+    """Two replays of the same short episodes (same reset seeds, same actions) give exactly the same
+    observations, rewards and end flags: else the env's steps draw random numbers its seed does not fix."""
+    first, again = replay(task, env, seed), replay(task, env, seed)
+    for (reset_seed, one), (_, other) in zip(first, again, strict=True):
+        difference = first_difference(one, other)
+        if difference is not None:
+            step, what = difference
+            at = "at reset" if step == 0 else f"at step {step}"
+            raise EnvContractError(
+                f"task.env_id={task.env_id} is not reproducible: two replays of the episode reset with seed "
+                f"{reset_seed}, with the same actions, gave a different {what} {at} (does the env draw random "
+                f"numbers outside its seeded generator self.np_random, or keep state its reset does not restore?), "
+                f"so the cache cannot serve its returns")
+
+
+def replay(task: Task, env: gymnasium.Env, seed: int) -> list[tuple[int, list[dict]]]:
+    """The check episodes under fixed actions: per episode its reset seed and one record per step (step 0:
+    the reset observation; step k: the observation, reward and end flags ``env.step`` returned)."""
+    reset_seeds = episode_reset_seeds(seed, np.zeros(CHECK_EPISODES, dtype=np.int64), np.arange(CHECK_EPISODES))
+    length = min(CHECK_STEPS, task.max_steps)
+    outputs = np.random.default_rng(seed).uniform(-1.0, 1.0, (CHECK_EPISODES, length, task.action_size))
+    episodes = []
+    for reset_seed, episode_outputs in zip(reset_seeds.tolist(), outputs, strict=True):
+        records = [{"observation": np.array(reset_env(task, env, reset_seed))}]
+        for step, action in enumerate(decode_actions(task.action_space, episode_outputs), start=1):
+            observation, reward, terminated, truncated, _ = step_env(task, env, action, step, seed=reset_seed)
+            where = f"step {step} after reset(seed={reset_seed}) of the env check before RWG"
+            records.append({"observation": np.array(observation), "reward": reward_value(task, reward, where),
+                            "terminated flag": bool(terminated), "truncated flag": bool(truncated)})
+            if terminated or truncated:
+                break
+        episodes.append((reset_seed, records))
+    return episodes
+
+
+def first_difference(one: list[dict], other: list[dict]) -> tuple[int, str] | None:
+    """(step, what) of the first record entry that differs between two replays of an episode, or None."""
+    for step, (a, b) in enumerate(zip(one, other, strict=False)):
+        for what in a:
+            if not same(a[what], b[what]):
+                return step, what
+    if len(one) != len(other):
+        return min(len(one), len(other)), "episode length"
+    return None
+
+
+def same(a, b) -> bool:
+    """Exactly equal values: same shape, same dtype, same elements (NaN equals NaN)."""
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape or a.dtype != b.dtype:
+        return False
+    return bool(np.array_equal(a, b, equal_nan=a.dtype.kind in "fc"))

@@ -19,7 +19,7 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.policies.mlp import PolicyBatch
-from taskcomplexity.rwg.env_checks import check_observation, check_reward
+from taskcomplexity.rwg.env_checks import check_observation, check_reward, reset_env, step_env
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
 
@@ -98,9 +98,8 @@ class GymRollout:
 
         def start(slot: int) -> None:
             reset_seed = int(seeds[slot_policy[slot], slot_episode[slot]])
-            first, _ = envs[slot].reset(seed=reset_seed)
-            first = check_observation(task, first, seed=reset_seed, policy=int(policies.indices[slot_policy[slot]]),
-                                      episode=int(slot_episode[slot]))
+            first = reset_env(task, envs[slot], reset_seed, policy=int(policies.indices[slot_policy[slot]]),
+                              episode=int(slot_episode[slot]))
             obs[slot] = encode_observations(space_in, first[None])[0]
 
         for slot in np.flatnonzero(active):
@@ -112,8 +111,10 @@ class GymRollout:
                 actions = decode_actions(space_out, outputs.reshape(n_pol * width, -1))
                 for slot in np.flatnonzero(active):
                     p, e = slot_policy[slot], slot_episode[slot]
-                    new, reward, terminated, truncated, info = envs[slot].step(actions[slot])
-                    returns[p, e] += check_reward(task, reward, int(policies.indices[p]), int(e), int(steps[p, e]) + 1)
+                    n, step = int(policies.indices[p]), int(steps[p, e]) + 1
+                    new, reward, terminated, truncated, info = step_env(task, envs[slot], actions[slot], step,
+                                                                        policy=n, episode=int(e))
+                    returns[p, e] += check_reward(task, reward, n, int(e), step)
                     steps[p, e] += 1
                     if terminated or truncated or steps[p, e] >= limit:
                         success[p, e] = bool(info.get("is_success", info.get("success", False)))
@@ -123,7 +124,6 @@ class GymRollout:
                         else:
                             active[slot] = False
                     else:
-                        new = check_observation(task, new, policy=int(policies.indices[p]), episode=int(e),
-                                                step=int(steps[p, e]))
+                        new = check_observation(task, new, policy=n, episode=int(e), step=step)
                         obs[slot] = encode_observations(space_in, new[None])[0]
         return returns, steps, success

@@ -13,6 +13,8 @@ Temporary directories of processes that died are removed by the next writer of t
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import hashlib
 import json
 import logging
@@ -22,14 +24,15 @@ import shutil
 import sys
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from filelock import FileLock
+from filelock import FileLock, Timeout
 
 from taskcomplexity.errors import ArtefactError
+from taskcomplexity.stages.resources import human_bytes
 
 log = logging.getLogger(__name__)
 
@@ -76,11 +79,48 @@ def ensure_writable(root: Path, key: str = "paths.outputs") -> None:
         raise ArtefactError(f"{key}: cannot write to {root} ({err.strerror or err})") from err
 
 
+def read_only(root: Path) -> bool:
+    """Whether ``root`` is an existing directory this process can read but not write (a shared cache on a
+    read-only mount, or another user's)."""
+    return root.is_dir() and os.access(root, os.R_OK | os.X_OK) and not os.access(root, os.W_OK)
+
+
+MIN_FREE_BYTES = 1 << 20
+"""Below this much free space a run could not even write its config and log: refused up front."""
+
+
+def check_free_space(root: Path) -> None:
+    """Raise the disk-full ``OSError`` (naming ``root``) when its filesystem has almost no space left."""
+    free = shutil.disk_usage(root).free
+    if free < MIN_FREE_BYTES:
+        raise OSError(errno.ENOSPC, f"No space left on device ({human_bytes(free)} free)", str(root))
+
+
 def check_writable(outputs: Path, cache: Cache) -> None:
     """Fail early, naming the config key, when ``outputs`` (``paths.outputs``) or the cache's root (``paths.cache``)
-    cannot be written (each made if missing)."""
+    cannot be written (each made if missing); a read-only cache that exists is kept to serve what it holds."""
     ensure_writable(outputs)
-    ensure_writable(cache.root, key="paths.cache")
+    if read_only(cache.root):
+        log.info("paths.cache %s is read-only: its artefacts are served, anything it lacks is refused", cache.root)
+    else:
+        ensure_writable(cache.root, key="paths.cache")
+
+
+@contextlib.contextmanager
+def waiting_lock(path: Path, what: str) -> Iterator[None]:
+    """Hold the file lock at ``path``; if another run holds it, say what this run waits for, then wait."""
+    lock = FileLock(str(path))
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        log.info("waiting for another run that is computing %s (it holds %s)", what, path)
+        started = time.monotonic()
+        lock.acquire()
+        log.info("%s: the other run is done after %.0f s", what, time.monotonic() - started)
+    try:
+        yield
+    finally:
+        lock.release()
 
 
 def file_digest(path: Path) -> str:
@@ -170,6 +210,12 @@ class Cache:
     def path(self, stage: str, key: str) -> Path:
         return self.root / stage / key
 
+    def require_writable(self, stage: str, key: str) -> None:
+        """Refuse, in one line, to compute an artefact into a read-only cache (a hit needs no writing)."""
+        if read_only(self.root):
+            raise ArtefactError(f"paths.cache {self.root} is read-only and holds no {stage} artefact {key}: "
+                                "point paths.cache at a writable directory to compute it")
+
     def scratch(self, stage: str, key: str) -> Path:
         """A per-key directory for resumable partial work (chunks, shards, checkpoints)."""
         path = self.root / stage / f".partial-{key}"
@@ -232,9 +278,10 @@ class Cache:
             if found is not None:
                 log.debug("cache hit: %s %s (%s)", stage, key, found.path)
                 return found, True
+        self.require_writable(stage, key)
         final = self.path(stage, key)
         final.parent.mkdir(parents=True, exist_ok=True)
-        with FileLock(str(final.parent / f".{key}.lock")):
+        with waiting_lock(final.parent / f".{key}.lock", f"{stage} {key}"):
             remove_orphans(final.parent, f".tmp-{key}-*")
             if not force:
                 found = self.lookup(stage, key, config)
@@ -298,14 +345,6 @@ class Cache:
         return out
 
 
-def _human(n: float) -> str:
-    for unit in ("B", "KB", "MB", "GB"):
-        if n < 1024:
-            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
-        n /= 1024
-    return f"{n:.1f} TB"
-
-
 def main(argv: list[str] | None = None) -> int:
     import argparse
 
@@ -320,8 +359,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     print(f"{'stage':<10} {'key':<17} {'size':>10}  {'created':<25} what")
     for e in entries:
-        print(f"{e['stage']:<10} {e['key']:<17} {_human(e['bytes']):>10}  {e['created']:<25} {e['what']}")
-    print(f"{len(entries)} artefacts, {_human(sum(e['bytes'] for e in entries))} under {args.root}")
+        print(f"{e['stage']:<10} {e['key']:<17} {human_bytes(e['bytes']):>10}  {e['created']:<25} {e['what']}")
+    print(f"{len(entries)} artefacts, {human_bytes(sum(e['bytes'] for e in entries))} under {args.root}")
     return 0
 
 

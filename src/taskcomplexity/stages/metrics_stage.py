@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numba
 import pandas as pd
 
 from taskcomplexity import metrics as est
@@ -36,6 +37,7 @@ from taskcomplexity.metrics.temperature import POICSearch
 from taskcomplexity.stages import rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.resources import refuse_beyond_memory
 from taskcomplexity.stages.rwg_stage import load_returns
 from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
@@ -193,6 +195,7 @@ def run_metrics_stage(
     before, with the study's pinned protocol).
     """
     settings.validate()
+    check_memory(settings, *returns_shape(rwg))
     settings = settings.at_scale(*returns_shape(rwg))
     key = metrics_key(rwg.key, settings, registry)
 
@@ -231,9 +234,28 @@ def _metrics(work: StudyWork) -> dict:
                             registry=work.registry, force=plan.force, progress=work.progress)
 
 
+BYTES_PER_BIN = 12 * numba.config.NUMBA_NUM_THREADS + 32
+"""Peak bytes per histogram bin: a count table of B per thread (64- and 32-bit) and the edges and bin bounds."""
+BYTES_PER_RESAMPLE_AND_POLICY = 5
+"""Peak bytes per bootstrap resample and policy: its multiplicity (32-bit) and its blocked copy (8-bit)."""
+
+
+def check_memory(settings: MetricsSettings, policies: int, episodes: int) -> None:
+    """Refuse, before any work, bins or resamples whose tables would not fit in this machine's memory."""
+    bins = settings.at_scale(policies, episodes).resolved_bins
+    for need, what, advice in (
+            (bins * BYTES_PER_BIN, f"metrics.bins = {bins:,}",
+             f"lower it; metrics.bins=auto gives B = {auto_bins(policies, episodes):,} at N = {policies:,}, "
+             f"M = {episodes:,}"),
+            (settings.resamples * policies * BYTES_PER_RESAMPLE_AND_POLICY,
+             f"metrics.resamples × N = {settings.resamples:,} × {policies:,}", "lower metrics.resamples")):
+        refuse_beyond_memory(need, what, advice)
+
+
 def _check_metrics(settings: MetricsSettings, study, requests, typed) -> None:
     for request in requests:
         policies = request.settings.policies
+        check_memory(settings, policies, request.settings.episodes)
         if settings.batches > policies // 2:
             raise ConfigError(f"metrics.batches={settings.batches} needs at least 2 policies per batch, but N = "
                               f"{policies} (rwg.policies or study.policies): allowed metrics.batches <= "

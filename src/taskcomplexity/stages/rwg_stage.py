@@ -8,6 +8,7 @@ single job would have written (same key, same returns).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import os
@@ -19,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from filelock import FileLock
 
 from taskcomplexity.config import canonical, result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
@@ -28,8 +28,9 @@ from taskcomplexity.policies.primitives import PrimitiveSpec
 from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import AUTO, ReturnChunk, RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
-from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans
+from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans, waiting_lock
 from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.resources import human_bytes, refuse_beyond_memory
 from taskcomplexity.stages.stage import Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
 from taskcomplexity.tasks.base import Task
@@ -203,10 +204,11 @@ def returns_frame(chunk: ReturnChunk) -> pd.DataFrame:
     )
 
 
-def _shard_lock(cache: Cache, key: str, shard: int) -> FileLock:
+def _shard_lock(cache: Cache, request: RWGRequest, shard: int):
     directory = cache.root / STAGE
     directory.mkdir(parents=True, exist_ok=True)
-    return FileLock(str(directory / f".{key}.shard-{shard}.lock"))
+    return waiting_lock(directory / f".{request.key}.shard-{shard}.lock",
+                        f"shard {shard} of rwg {request.key} ({request.label})")
 
 
 def _ensure_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: Progress) -> bool:
@@ -214,7 +216,7 @@ def _ensure_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: Pr
 
     Returns False when the merged artefact appeared meanwhile (a concurrent job finished it).
     """
-    with _shard_lock(cache, request.key, shard):
+    with _shard_lock(cache, request, shard):
         if cache.lookup(STAGE, request.key, request.identity()) is not None:
             return False
         compute_shard(cache, request, shard, progress=progress)
@@ -230,19 +232,14 @@ BYTES_ON_DISK_PER_EPISODE = 48
 def check_plan(cache: Cache, request: RWGRequest) -> None:
     """Refuse, before any work, a run whose memory or disk need is beyond this machine, with the estimate."""
     episodes = request.settings.policies * request.settings.episodes
-    memory = episodes * BYTES_IN_MEMORY_PER_EPISODE
-    total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    if memory > 0.8 * total:
-        raise ConfigError(
-            f"rwg.policies × rwg.episodes = {request.settings.policies:,} × {request.settings.episodes:,} needs about "
-            f"{memory / 2**30:,.1f} GB of memory, this machine has {total / 2**30:,.1f} GB (lower N or M)")
+    what = f"rwg.policies × rwg.episodes = {request.settings.policies:,} × {request.settings.episodes:,}"
+    refuse_beyond_memory(episodes * BYTES_IN_MEMORY_PER_EPISODE, what, "lower N or M")
     cache.root.mkdir(parents=True, exist_ok=True)
     disk = episodes * BYTES_ON_DISK_PER_EPISODE
     free = shutil.disk_usage(cache.root).free
     if disk > free:
-        raise ConfigError(
-            f"rwg.policies × rwg.episodes = {request.settings.policies:,} × {request.settings.episodes:,} needs about "
-            f"{disk / 2**30:,.2f} GB of disk under {cache.root}, {free / 2**30:,.2f} GB are free")
+        raise ConfigError(f"{what} needs about {human_bytes(disk)} of disk under {cache.root}, {human_bytes(free)} "
+                          "are free")
 
 
 def _compute_shards(cache: Cache, request: RWGRequest, scratch: Path, *, force: bool, progress: Progress,
@@ -272,6 +269,13 @@ def _discard_partial_work(cache: Cache, key: str, scratch: Path) -> None:
         lock.unlink(missing_ok=True)
 
 
+def _remove_if_empty(scratch: Path) -> None:
+    """Remove the scratch directory of a failed run when it holds no saved work (``rmdir`` refuses a directory
+    another job has meanwhile saved a chunk into)."""
+    with contextlib.suppress(OSError):
+        scratch.rmdir()
+
+
 def run_rwg_stage(
     cache: Cache,
     request: RWGRequest,
@@ -296,6 +300,7 @@ def run_rwg_stage(
     if not force and (found := cache.lookup(STAGE, key, request.identity())) is not None:
         log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
         return found, True
+    cache.require_writable(STAGE, key)
     if request.backend == "gym":
         check_env(request.task, request.settings.seed)  # before anything is created under the cache
     check_plan(cache, request)
@@ -307,6 +312,9 @@ def run_rwg_stage(
                                   compute_missing=compute_missing)
     except EnvContractError:
         _discard_partial_work(cache, key, scratch)  # the env, not the run, failed: nothing of it is kept
+        raise
+    except BaseException:  # the env raised, a bug, Ctrl-C: saved chunks of completed work stay for the rerun
+        _remove_if_empty(scratch)
         raise
     if missing:
         log.info("shard %d/%d of %s done; still missing shards %s", request.settings.shard, shards,
