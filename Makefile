@@ -4,13 +4,14 @@ PYTHON ?= python3.11
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep test test-all lint bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep test test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
-	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
+	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
@@ -52,8 +53,19 @@ CLASSIC_PRIORS := normal,uniform,xavier_normal_tanh,xavier_uniform_tanh
 classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_control as a multirun + its sweep report (ARGS=… adds overrides, e.g. a launcher)
 	$(PY) pipelines/study.py -m study=classic_control network=$(CLASSIC_NETWORKS) prior=$(CLASSIC_PRIORS) $(ARGS)
 
-test: $(STAMP) ## run the test suite (what CI runs)
-	$(PY) -m pytest -q -m "not slow"
+# pytest-xdist: one worker per core, each test file on one worker (its module fixtures are computed once).
+XDIST := -n auto --dist loadfile
+
+test: $(STAMP) ## run the test suite (CI runs it, then make test-avx2)
+	$(PY) -m pytest -q -m "not slow" $(XDIST)
+
+# The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
+PINNED_TESTS := tests/golden tests/metrics/test_log_mean_exp.py tests/tasks/test_batched.py \
+	tests/tasks/test_rollout_kernel.py tests/tasks/test_step_kernel.py tests/tasks/test_contact.py \
+	tests/tasks/test_noisy_cartpole.py
+
+test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass)
+	$(PY) tests/cpu_paths.py -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)
 
 test-all: $(STAMP) ## every test, including the slow learning checks
 	$(PY) -m pytest -q
@@ -61,10 +73,20 @@ test-all: $(STAMP) ## every test, including the slow learning checks
 lint: $(STAMP) ## ruff
 	$(VENV)/bin/ruff check src tests pipelines bench
 
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(PY) -m pip install --quiet -e '.[dev,docs]'
+	@touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP) ## build the documentation site into site/ with --strict
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir site
+
+docs-serve: $(DOCS_STAMP) ## serve the documentation at http://127.0.0.1:8000 while you edit it
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs serve --dev-addr 127.0.0.1:8000
+
 bench: $(STAMP) ## benchmarks: figures and ratios measured side by side
 	$(PY) bench/run.py
 
-fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/fidelity.md (ARGS=--scan: + the torque scan)
+fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/explanation/fidelity.md (ARGS=--scan: + the torque scan)
 	$(PY) bench/fidelity.py $(ARGS)
 
 calibrate-contacts: $(STAMP) ## measure the obstacle contact model's one-sweep rates on PyBullet, beside the constants (minutes)
@@ -76,5 +98,5 @@ cache-list: $(STAMP) ## list cached artefacts with their sizes
 clean-cache: ## delete outputs/cache
 	rm -rf outputs/cache
 
-clean: ## delete the virtualenv and all outputs
-	rm -rf $(VENV) outputs/cache outputs/runs outputs/reports outputs/tables
+clean: ## delete the virtualenv, all outputs and the built documentation
+	rm -rf $(VENV) outputs/cache outputs/runs outputs/reports outputs/tables site

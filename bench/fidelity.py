@@ -1,4 +1,5 @@
-"""`make fidelity`: our Table 1 at the published scale beside the published cells, with the probes of docs/fidelity.md.
+"""`make fidelity`: our Table 1 at the published scale beside the published cells, with the probes of
+docs/explanation/fidelity.md.
 
     .venv/bin/python bench/fidelity.py                       # experiment=published (reuses `make run`'s cache)
     .venv/bin/python bench/fidelity.py rwg.policies=10200    # any Hydra override of the study
@@ -8,11 +9,11 @@ Computes (or reuses, from the cache under ``paths.outputs``) the RWG and metrics
 of the study and prints, per task, PIC and POIC with their bootstrap mean ± sd, H(R) and H(R|Θ); for
 the cells whose published value is known (``PUBLISHED``), the distance of our bootstrap mean from it in
 published standard deviations. Then, for those cells, the probes that decide where an offset comes from
-(docs/fidelity.md): the pooled returns' range, tails and ties, and H(R), H(R|Θ) and PIC again with the
+(docs/explanation/fidelity.md): the pooled returns' range, tails and ties, and H(R), H(R|Θ) and PIC again with the
 most extreme returns clipped, so that the bin width no longer depends on them.
 ``--scan`` adds, for the 1-link L = 1.0 dense cell, PIC at torque scales within ±1 % of the spec's 30 N·m
 (same policies, same reset states, so the differences are the mechanics' alone): how far a change in the
-fourth significant digit of the arm's impulse moves the cell (docs/fidelity.md).
+fourth significant digit of the arm's impulse moves the cell (docs/explanation/fidelity.md).
 At the published scale a cold run takes as long as `make run`; not part of CI.
 """
 

@@ -27,8 +27,9 @@ def compose_config(tmp_path):
     GlobalHydra.instance().clear()
 
 
-def pytest_report_header(config):
-    """The kernels this run computes with (numba's target, NumPy's dispatch, torch's capability, the BLAS)."""
+def pytest_terminal_summary(terminalreporter):
+    """The kernels this run computed with (numba's target, NumPy's dispatch, torch's capability, the BLAS), in the
+    summary that ``-q`` keeps: CI runs the suite on two code paths and its log says which was which."""
     from cpu_paths import describe
 
-    return f"CPU code paths: {describe()}"
+    terminalreporter.write_line(f"CPU code paths: {describe()}")

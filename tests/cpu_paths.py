@@ -9,7 +9,7 @@ AVX2 path. On an AVX2 machine the second run takes the path it already has. Run 
 
     .venv/bin/python tests/cpu_paths.py -- .venv/bin/python -m pytest tests/golden
 
-:func:`describe` names the kernels a process uses; ``conftest.py`` prints it in pytest's header.
+:func:`describe` names the kernels a process uses; ``conftest.py`` prints it in pytest's summary.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A researcher's own task, as the README's "Your own study" uses it: a point mass reaching a goal on a line.
+"""A researcher's own task, as docs/tutorials/own-task.md uses it: a point mass reaching a goal on a line.
 
 The agent pushes a unit mass on a line of half-width 1 (force in [-1, 1], time step 0.05 s, velocity
 damped by 10 % per step) towards a goal drawn uniformly in [-0.8, 0.8] at reset. Observation:

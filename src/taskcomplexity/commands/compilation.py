@@ -25,7 +25,7 @@ log = logging.getLogger(__name__)
 
 FIRST_RUN_SECONDS = 45
 """Seconds of compilation of a first ``experiment=smoke`` run on a 2-core machine; every kernel a study uses,
-compiled once per install (measured from a fresh clone: 19 kernels in 42 s, README "What `make run` does")."""
+compiled once per install (measured from a fresh clone: 19 kernels in 42 s; docs/tutorials/reproduce-the-paper.md)."""
 
 
 def cache_location() -> str:

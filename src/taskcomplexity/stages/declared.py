@@ -7,7 +7,7 @@ function over the study's tasks; its ``run`` is a short adapter from the study's
 :class:`~taskcomplexity.stages.stage.StudyWork` (the plan and what the stages before it returned) to that
 function, its ``check`` what its settings must satisfy given the study's tasks (checked when the plan is read,
 before any work), its ``order`` its place in the chain. A new stage is its module and its config group
-(``conf/<name>/default.yaml``, chosen in ``conf/config.yaml``'s defaults): README, "Add a stage".
+(``conf/<name>/default.yaml``, chosen in ``conf/config.yaml``'s defaults): docs/how-to/add-a-stage.md.
 
 The verdict (:data:`taskcomplexity.stages.verdict_stage.VERDICT`) closes the chain: it judges every record here
 that says how (:class:`~taskcomplexity.stages.stage.Judged`), so it reads this module and is not among them.
