@@ -130,3 +130,23 @@ def significant_int(value: float, digits: int = 2) -> str:
     rounded = int(float(f"{value:.{digits}g}")) if value >= 10 ** digits else int(np.ceil(value))
     return f"{rounded:,}".replace(",", " ")
 
+
+
+def and_list(items) -> str:
+    """Items joined as a sentence lists them: "A", "A and B", "A, B and C" ("" when there are none)."""
+    items = [str(i) for i in items]
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + f" and {items[-1]}" if items else ""
+
+
+def naming(items, noun: str, many: str | None = None, *, at_most: int = 3) -> tuple[str, str]:
+    """The subject naming ``items``, and a trailing example for when they are too many to name.
+
+    Up to ``at_most`` by name ("A", "A and B", "A, B and C"; no example), more by count with the first
+    two as the example ("5 measures", ", e.g. A and B"), none as "no " + ``noun``.
+    """
+    items = [str(i) for i in items]
+    if not items:
+        return f"no {noun}", ""
+    if len(items) <= at_most:
+        return and_list(items), ""
+    return plural(len(items), noun, many), f", e.g. {and_list(items[:2])}"

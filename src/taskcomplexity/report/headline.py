@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import num, of_total, plural, pvalue, significant_int
+from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue, significant_int
 from taskcomplexity.report.verdict_tables import survival_tables
 from taskcomplexity.verdict.references import reference_label
 
@@ -14,7 +16,7 @@ from taskcomplexity.verdict.references import reference_label
 def _count(summary: pd.DataFrame, metric: str) -> dict[str, int]:
     row = summary.set_index("metric").loc[metric]
     return {"agree": int(row["agreements"]), "contradict": int(row["contradictions"]),
-            "uninformative": int(row.get("uninformative", 0))}
+            "uninformative": int(row.get("uninformative", 0)), "undefined": int(row.get("undefined", 0))}
 
 
 def information_sentences(data: StudyData) -> list[str]:
@@ -77,31 +79,10 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
         return [f"The study gives no relation to judge between its {plural(len(data.tasks), 'task')}, so there is "
                 "no verdict: the page shows the metrics of each task. Add relations (easier, harder, kind) to the "
                 "study file to judge them."]
-    relations = verdict[["easier", "harder"]].drop_duplicates().shape[0]
     sentences = information_sentences(data)
     primary = [m.name for m in registry if m.primary and m.name in set(summary["metric"])]
     if primary:
-        parts = []
-        for m in primary:
-            counts = _count(summary, m)
-            if counts["uninformative"] == relations:
-                parts.append(f"{registry.label(m)} is uninformative on {'it' if relations == 1 else 'every one'}")
-                continue
-            if relations == 1:
-                word = ("agrees with it" if counts["agree"] else "contradicts it" if counts["contradict"]
-                        else "is not significant or undefined on it")
-                parts.append(f"{registry.label(m)} {word}")
-                continue
-            part = f"{registry.label(m)} agrees with {counts['agree']} and contradicts {counts['contradict']}"
-            if counts["uninformative"]:
-                part += f" and is uninformative on {counts['uninformative']}"
-            parts.append(part)
-        chosen = verdict[verdict["metric"].isin(primary)]
-        rest = [o for o in ("not significant", "undefined") if (chosen["outcome"] == o).any()]
-        known = ("Against the known complexity relation" if relations == 1
-                 else f"Against the {relations} known complexity relations")
-        sentences.append(f"{known}, " + "; ".join(parts) + f" (Welch's test, p < {alpha:g}"
-                         + (f"; the rest are {' or '.join(rest)})." if rest else ")."))
+        sentences.append(primary_sentence(summary, verdict, primary, label=registry.label, alpha=alpha))
     sentences.append(best_measure_sentence(data))
     sac = summary[summary["metric"].map(lambda m: m in registry and registry[m].stage == "sac")]
     if sac.empty:
@@ -113,45 +94,203 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
                          f"{int(first['agreements'])} of the {plural(judged, 'relation')} it could judge.")
     sentences += resolve_sentences(data)
     sentences += reference_sentences(data)
-    for quantity, table in survival_tables(data).items():
-        others = list(table.columns[2:-1])
-        kept, total = int((table["Survives"] == "yes").sum()), len(table)
-        if total == 1:
-            verdicts = f"The verdict on {quantity} {'survives' if kept else 'does not survive'}"
-        else:
-            verdicts = (f"{'None' if kept == 0 else kept} of the {total} verdicts on {quantity} "
-                        f"{'survives' if kept <= 1 else 'survive'}")
-        sentences.append(f"{verdicts} a change of estimator ({', '.join(others)}).")
+    sentences += [survival_sentence(quantity, table) for quantity, table in survival_tables(data).items()]
     return sentences
 
 
+SIGNIFICANT = ("agree", "contradict")
+"""The outcomes of a significant verdict."""
+
+
+def _verb(count: int, one: str, many: str) -> str:
+    return one if count == 1 else many
+
+
+def primary_sentence(summary: pd.DataFrame, verdict: pd.DataFrame, primary: list[str], *,
+                     label: Callable[[str], str], alpha: float) -> str:
+    """How the primary metrics fare against the known relations, with the count of each other outcome.
+
+    Parameters
+    ----------
+    summary, verdict : pandas.DataFrame
+        The verdict artefact's per-metric counts and its metric × relation outcomes.
+    primary : list of str
+        The primary metrics (each in ``summary``), in order.
+    label : callable
+        A metric's display label.
+    alpha : float
+        The significance cut-off used (for the wording).
+    """
+    relations = verdict[["easier", "harder"]].drop_duplicates().shape[0]
+    known = ("Against the known complexity relation" if relations == 1
+             else f"Against the {relations} known complexity relations")
+    test = f"Welch's test, p < {alpha:g}"
+    chosen = verdict[verdict["metric"].isin(primary)]
+    rest = {o: int((chosen["outcome"] == o).sum()) for o in ("not significant", "undefined")}
+    if relations > 1 and len(chosen) and sum(rest.values()) == len(chosen):
+        (first, n), *others = [(o, n) for o, n in rest.items() if n]
+        counts = f"{n} {_verb(n, 'is', 'are')} {first}" + "".join(f" and {k} {o}" for o, k in others)
+        return (f"{known}, none of the {len(chosen)} verdicts of {and_list(label(m) for m in primary)} is "
+                f"significant ({test}): {counts}.")
+    parts = []
+    for m in primary:
+        counts = _count(summary, m)
+        if counts["uninformative"] == relations:
+            parts.append(f"{label(m)} is uninformative on {'it' if relations == 1 else 'every one'}")
+            continue
+        if relations == 1:
+            word = ("agrees with it" if counts["agree"] else "contradicts it" if counts["contradict"]
+                    else "is undefined on it" if counts["undefined"] else "is not significant on it")
+            parts.append(f"{label(m)} {word}")
+            continue
+        part = f"{label(m)} agrees with {counts['agree']} and contradicts {counts['contradict']}"
+        if counts["uninformative"]:
+            part += f" and is uninformative on {counts['uninformative']}"
+        parts.append(part)
+    other = sum(rest.values())
+    if relations == 1 or not other:
+        tail = ""
+    elif all(rest.values()):
+        tail = (f"; of the other {other} verdicts, {rest['not significant']} "
+                f"{_verb(rest['not significant'], 'is', 'are')} not significant and {rest['undefined']} undefined")
+    else:
+        outcome = next(o for o, n in rest.items() if n)
+        tail = (f"; the other verdict is {outcome}" if other == 1
+                else f"; the other {other} verdicts are {outcome}")
+    return f"{known}, " + "; ".join(parts) + f" ({test}{tail})."
+
+
 def best_measure_sentence(data: StudyData) -> str:
-    """Which measure agrees with the known relations most often, among those on one scale across tasks (a raw
-    mean return in each task's own reward units is never promoted), and which contradicts them most often."""
-    verdict, summary, registry = data.verdict["verdict"], data.verdict["summary"], data.registry
-    comparable = summary[summary["metric"].map(lambda m: m not in registry or registry[m].comparable_across_tasks)]
-    scored = comparable.assign(net=comparable["agreements"] - comparable["contradictions"],
-                               label=comparable["metric"].map(registry.label))
-    best = scored.sort_values(["net", "agreements"], ascending=False, kind="stable").iloc[0]
-    worst = scored.sort_values(["contradictions", "net"], ascending=[False, True], kind="stable").iloc[0]
-    them = "it" if int(worst["relations"]) == 1 else "them"
-    if worst["contradictions"] > 0:
-        example = verdict[(verdict["metric"] == worst["metric"]) & (verdict["outcome"] == "contradict")].iloc[0]
-        often = (f" most often ({int(worst['contradictions'])} of {int(worst['relations'])})"
-                 if int(worst["relations"]) > 1 else "")
-        contradiction = (f"{worst['label']} contradicts {them}{often}: for example, it rates "
-                         f"{data.name(example['harder'])} easier than {data.name(example['easier'])}")
+    """Which measures agree with the known relations most often, among those on one scale across tasks (a raw
+    mean return in each task's own reward units is never promoted), and which contradict them most often."""
+    registry = data.registry
+    return measure_sentence(data.verdict["summary"], data.verdict["verdict"], label=registry.label, name=data.name,
+                            comparable=lambda m: m not in registry or registry[m].comparable_across_tasks)
+
+
+def _share(group: pd.DataFrame, column: str) -> str:
+    """"(9 of 10)", "(9 of 10 each)" for a tie, "(9 each)" for a tie over different numbers of relations."""
+    count, totals = int(group[column].iloc[0]), set(group["relations"].astype(int))
+    each = " each" if len(group) > 1 else ""
+    return f"({count} of {totals.pop()}{each})" if len(totals) == 1 else f"({count}{each})"
+
+
+def _who(group: pd.DataFrame, everyone: int) -> tuple[str, str]:
+    """The subject naming a tied group of measures (and its trailing example), "both"/"all 8" when it is
+    every one of ``everyone`` measures."""
+    if len(group) == everyone > 1:
+        return ("both" if everyone == 2 else f"all {everyone}"), ""
+    return naming(group["label"], "measure")
+
+
+def measure_sentence(summary: pd.DataFrame, verdict: pd.DataFrame, *, label: Callable[[str], str],
+                     name: Callable[[str], str], comparable: Callable[[str], bool]) -> str:
+    """Which measures agree with the known relations most often and which contradict them most often.
+
+    Every measure tied at the top is named: the most agreements net of contradictions, then the most
+    agreements; and at the bottom: the most contradictions, then the fewest net agreements. More than
+    three tied measures are counted, with two of them as the example.
+
+    Parameters
+    ----------
+    summary, verdict : pandas.DataFrame
+        The verdict artefact's per-metric counts and its metric × relation outcomes.
+    label, name : callable
+        A metric's display label; a task's display name.
+    comparable : callable
+        Whether a metric is on one scale across tasks (only those are ranked).
+    """
+    chosen = summary[summary["metric"].map(comparable)]
+    left_out = len(summary) - len(chosen)
+    if chosen.empty:
+        return (f"No measure is on one scale across tasks ({plural(left_out, 'measure')} in each task's own reward "
+                "units), so none is ranked against the known relations.")
+    scored = chosen.assign(net=chosen["agreements"] - chosen["contradictions"], label=chosen["metric"].map(label))
+    top = scored[scored["net"] == scored["net"].max()]
+    top = top[top["agreements"] == top["agreements"].max()]
+    bottom = scored[scored["contradictions"] == scored["contradictions"].max()]
+    bottom = bottom[bottom["net"] == bottom["net"].min()]
+    them = "it" if int(bottom["relations"].max()) == 1 else "them"
+    if int(bottom["contradictions"].iloc[0]) > 0:
+        first = bottom.iloc[0]
+        example = verdict[(verdict["metric"] == first["metric"]) & (verdict["outcome"] == "contradict")].iloc[0]
+        subject, eg = _who(bottom, len(scored))
+        often = "" if them == "it" else (" equally often " if len(bottom) == len(scored) > 1
+                                          else " most often ") + _share(bottom, "contradictions")
+        who = "it" if len(bottom) == 1 else first["label"]
+        contradiction = (f"{subject} {_verb(len(bottom), 'contradicts', 'contradict')} {them}{often}{eg}"
+                         f"{'; ' if eg else ': '}for example, {who} rates {name(example['harder'])} easier than "
+                         f"{name(example['easier'])}")
     else:
         contradiction = f"no measure contradicts {them} significantly"
-    left_out = len(summary) - len(comparable)
-    among = (f"Of the {plural(len(comparable), 'measure')} on one scale across tasks"
+    among = (f"Of the {plural(len(chosen), 'measure')} on one scale across tasks"
              + (f" ({left_out} in each task's own reward units left out)" if left_out else ""))
-    if int(best["agreements"]) == 0:
+    agreements = int(top["agreements"].iloc[0])
+    if int(scored["agreements"].max()) == 0:
         return f"{among}, none agrees significantly with any known relation; {contradiction}."
-    if int(best["relations"]) == 1:
-        return f"{among}, {best['label']} agrees with the known relation; {contradiction}."
-    return (f"{among}, {best['label']} agrees with the known relations most often ({int(best['agreements'])} of "
-            f"{int(best['relations'])}); {contradiction}.")
+    if agreements == 0:
+        return f"{among}, none agrees with the known relations more often than it contradicts them; {contradiction}."
+    subject, eg = _who(top, len(scored))
+    agree = _verb(len(top), "agrees", "agree")
+    totals = set(top["relations"].astype(int))
+    if totals == {1}:
+        return f"{among}, {subject} {agree} with the known relation{eg}; {contradiction}."
+    if len(top) == len(scored) > 1:
+        words = ("agree with every known relation" if totals == {agreements}
+                 else f"agree with the known relations equally often {_share(top, 'agreements')}")
+        return f"{among}, {subject} {words}; {contradiction}."
+    return (f"{among}, {subject} {agree} with the known relations most often {_share(top, 'agreements')}{eg}; "
+            f"{contradiction}.")
+
+
+def survival_sentence(quantity: str, table: pd.DataFrame) -> str:
+    """Whether the significant verdicts on a quantity survive a change of estimator.
+
+    Only relations with a significant verdict (agree, contradict) from an informative estimator count; an
+    uninformative estimator is left out of the comparison (and named), so a relation survives when every
+    informative estimator, at least two of them, reaches the same outcome.
+
+    Parameters
+    ----------
+    quantity : str
+        The quantity's label (e.g. I(Θ; R)).
+    table : pandas.DataFrame
+        One of :func:`~taskcomplexity.report.verdict_tables.survival_tables`: the relation, its kind, one
+        column of outcomes per estimator.
+    """
+    estimators = list(table.columns[2:-1])
+    outcomes = table[estimators].astype(str)
+    informative = (outcomes != "uninformative") & (outcomes != "")
+    judged = (outcomes.isin(SIGNIFICANT) & informative).any(axis=1)
+    several = informative.sum(axis=1) >= 2
+    same = outcomes.where(informative).nunique(axis=1, dropna=True) <= 1
+    total, significant = len(table), int(judged.sum())
+    kept, alone = int((judged & several & same).sum()), int((judged & ~several).sum())
+    blank = {e: int(n) for e, n in (outcomes == "uninformative").sum().items() if n}
+    if blank:
+        left = (and_list(blank) if total == 1
+                else and_list(f"{e} on {of_total(n, total, 'relation')}" for e, n in blank.items()))
+        listed = f"{', '.join(estimators)}; left out where uninformative: {left}"
+    else:
+        listed = ", ".join(estimators)
+    if significant == 0:
+        which = "the known relation" if total == 1 else f"any of the {total} known relations"
+        return (f"No informative estimator gives a significant verdict on {quantity} for {which}, so no verdict "
+                f"is tested against a change of estimator ({listed}).")
+    unchecked = (f"; {'it has' if significant == 1 else f'{alone} have' if alone > 1 else '1 has'} no other "
+                 "informative estimator to change to" if alone else "")
+    if total == 1:
+        verb = "has no other informative estimator to change to" if alone else (
+            "survives" if kept else "does not survive")
+        change = "" if alone else " a change of estimator"
+        return f"The significant verdict on {quantity} {verb}{change} ({listed})."
+    if kept == significant:
+        survive = "it survives" if kept == 1 else "both survive" if kept == 2 else "all survive"
+    else:
+        survive = f"{'none' if kept == 0 else kept} {_verb(max(kept, 1), 'survives', 'survive')}"
+    counted = of_total(significant, total, "relation")
+    return (f"{counted[0].upper()}{counted[1:]} {_verb(significant, 'has', 'have')} a significant verdict on "
+            f"{quantity}; of those, {survive} a change of estimator ({listed}){unchecked}.")
 
 
 def resolve_sentences(data: StudyData) -> list[str]:

@@ -1,0 +1,272 @@
+"""The headline's sentences as functions of plain verdict tables: ties name every tied measure, counts are the
+table's, and survival counts only significant verdicts of informative estimators."""
+
+from __future__ import annotations
+
+import re
+
+import pandas as pd
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from taskcomplexity.report.format import and_list, naming
+from taskcomplexity.report.headline import measure_sentence, primary_sentence, survival_sentence
+from taskcomplexity.report.verdict_tables import RELATION
+
+OUTCOMES = ("agree", "contradict", "not significant", "undefined", "uninformative")
+COUNTS = {"agreements": "agree", "contradictions": "contradict", "not_significant": "not significant",
+          "uninformative": "uninformative", "undefined": "undefined"}
+
+
+def tables(outcomes: dict[str, list[str]]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(summary, verdict) of metric → one outcome per relation (relation i: task ``t{i}`` easier than ``u{i}``)."""
+    verdict = pd.DataFrame([{"metric": m, "easier": f"t{i}", "harder": f"u{i}", "outcome": o}
+                            for m, row in outcomes.items() for i, o in enumerate(row)])
+    summary = pd.DataFrame([{"metric": m, "relations": len(row), **{c: row.count(o) for c, o in COUNTS.items()}}
+                            for m, row in outcomes.items()])
+    return summary, verdict
+
+
+def label(metric: str) -> str:
+    return metric.upper()
+
+
+def name(task: str) -> str:
+    return f"Task {task}"
+
+
+def sentence(outcomes, comparable=lambda m: True):
+    summary, verdict = tables(outcomes)
+    return measure_sentence(summary, verdict, label=label, name=name, comparable=comparable)
+
+
+def test_and_list_and_naming_read_right_at_every_count():
+    assert [and_list(x) for x in ([], ["A"], ["A", "B"], ["A", "B", "C"])] == ["", "A", "A and B", "A, B and C"]
+    assert naming([], "measure") == ("no measure", "")
+    assert naming(["A", "B", "C"], "measure") == ("A, B and C", "")
+    assert naming(list("ABCDE"), "measure") == ("5 measures", ", e.g. A and B")
+
+
+def test_two_measures_tied_at_the_top_are_both_named():
+    agree9 = ["agree"] * 9 + ["not significant"]
+    text = sentence({"a": agree9, "b": agree9, "c": ["agree"] * 5 + ["not significant"] * 5})
+    assert text.startswith("Of the 3 measures on one scale across tasks, A and B agree with the known relations "
+                           "most often (9 of 10 each); no measure contradicts them significantly.")
+
+
+def test_three_tied_measures_are_listed_and_more_are_counted_with_an_example():
+    agree9 = ["agree"] * 9 + ["not significant"]
+    three = sentence({"a": agree9, "b": agree9, "c": agree9, "d": ["not significant"] * 10})
+    assert "A, B and C agree with the known relations most often (9 of 10 each);" in three
+    five = sentence({**{m: agree9 for m in "abcde"}, "f": ["agree"] + ["not significant"] * 9})
+    assert "5 measures agree with the known relations most often (9 of 10 each), e.g. A and B;" in five
+
+
+def test_when_every_measure_agrees_with_every_relation_the_sentence_says_all_of_them():
+    text = sentence({m: ["agree"] * 4 for m in "abcdefgh"})
+    assert text == ("Of the 8 measures on one scale across tasks, all 8 agree with every known relation; "
+                    "no measure contradicts them significantly.")
+
+
+def test_tied_contradicting_measures_are_all_named():
+    row = ["contradict"] * 3 + ["not significant"] * 7
+    text = sentence({"a": ["agree"] * 4 + ["not significant"] * 6, "b": row, "c": row})
+    assert ("; B and C contradict them most often (3 of 10 each): for example, B rates Task u0 easier than "
+            "Task t0.") in text
+
+
+def test_none_agrees_more_often_than_it_contradicts_when_the_best_net_has_no_agreement():
+    text = sentence({"a": ["not significant"] * 4, "b": ["agree", "contradict", "contradict", "contradict"]})
+    assert "none agrees with the known relations more often than it contradicts them" in text
+
+
+def primary(outcomes, metrics, alpha=0.05):
+    summary, verdict = tables(outcomes)
+    return primary_sentence(summary, verdict, metrics, label=label, alpha=alpha)
+
+
+def test_the_primary_sentence_says_none_is_significant_and_counts_the_rest():
+    text = primary({"pic": ["not significant"] * 4 + ["undefined"], "poic": ["not significant"] * 5},
+                   ["pic", "poic"])
+    assert text == ("Against the 5 known complexity relations, none of the 10 verdicts of PIC and POIC is significant "
+                    "(Welch's test, p < 0.05): 9 are not significant and 1 undefined.")
+
+
+def test_the_primary_sentence_counts_each_kind_of_the_other_verdicts():
+    mixed = primary({"pic": ["agree", "not significant", "undefined"], "poic": ["contradict", "agree", "agree"]},
+                    ["pic", "poic"])
+    assert mixed == ("Against the 3 known complexity relations, PIC agrees with 1 and contradicts 0; POIC agrees "
+                     "with 2 and contradicts 1 (Welch's test, p < 0.05; of the other 2 verdicts, 1 is not "
+                     "significant and 1 undefined).")
+    one = primary({"pic": ["agree", "not significant"], "poic": ["agree", "contradict"]}, ["pic", "poic"])
+    assert one.endswith("(Welch's test, p < 0.05; the other verdict is not significant).")
+    single = primary({"pic": ["undefined"], "poic": ["not significant"]}, ["pic", "poic"])
+    assert single == ("Against the known complexity relation, PIC is undefined on it; POIC is not significant on it "
+                      "(Welch's test, p < 0.05).")
+
+
+def survival(rows: list[list[str]], estimators=("PIC", "PIC (MM)", "kNN")) -> pd.DataFrame:
+    table = pd.DataFrame(rows, columns=list(estimators))
+    table.insert(0, "Kind", "k")
+    table.insert(0, RELATION, [f"r{i}" for i in range(len(rows))])
+    table["Survives"] = ["yes" if len(set(r)) <= 1 else "no" for r in rows]
+    return table
+
+
+def test_survival_leaves_out_uninformative_estimators_and_names_them():
+    table = survival([["uninformative", "agree", "agree"], ["agree", "agree", "agree"],
+                      ["not significant", "not significant", "not significant"]])
+    assert survival_sentence("I(Θ; R)", table) == (
+        "2 of the 3 relations have a significant verdict on I(Θ; R); of those, both survive a change of estimator "
+        "(PIC, PIC (MM), kNN; left out where uninformative: PIC on 1 of the 3 relations).")
+
+
+def test_survival_is_never_claimed_of_verdicts_that_are_all_not_significant():
+    table = survival([["not significant"] * 3, ["uninformative", "not significant", "not significant"]])
+    text = survival_sentence("I(Θ; R)", table)
+    assert "surviv" not in text and text.startswith("No informative estimator gives a significant verdict on I(Θ; R)")
+    assert survival_sentence("I(Θ; R)", survival([["not significant"] * 3])).startswith("No informative estimator")
+
+
+def test_survival_counts_a_disagreement_between_informative_estimators():
+    table = survival([["agree", "not significant", "agree"], ["agree", "agree", "agree"]])
+    assert survival_sentence("I(Θ; R)", table) == (
+        "Both relations have a significant verdict on I(Θ; R); of those, 1 survives a change of estimator (PIC, "
+        "PIC (MM), kNN).")
+    lone = survival([["agree", "uninformative", "uninformative"]])
+    assert "no other informative estimator" in survival_sentence("I(Θ; R)", lone)
+    assert survival_sentence("I(Θ; R)", survival([["agree", "agree", "uninformative"]])) == (
+        "The significant verdict on I(Θ; R) survives a change of estimator (PIC, PIC (MM), kNN; left out where "
+        "uninformative: kNN).")
+
+
+# Properties over random verdict tables.
+
+@st.composite
+def outcome_tables(draw):
+    metrics = [f"m{i:02d}" for i in range(draw(st.integers(2, 17)))]
+    relations = draw(st.integers(1, 12))
+    kind = draw(st.sampled_from(("random", "all not significant", "all uninformative", "tied")))
+    row = st.lists(st.sampled_from(OUTCOMES), min_size=relations, max_size=relations)
+    if kind == "all not significant":
+        table = {m: ["not significant"] * relations for m in metrics}
+    elif kind == "all uninformative":
+        table = {m: ["uninformative"] * relations for m in metrics}
+    elif kind == "tied":
+        base = draw(row)
+        table = {m: base if draw(st.booleans()) else draw(row) for m in metrics}
+    else:
+        table = {m: draw(row) for m in metrics}
+    comparable = set(draw(st.lists(st.sampled_from(metrics), unique=True, min_size=0, max_size=len(metrics))))
+    if draw(st.booleans()):
+        comparable = set(metrics)
+    chosen = draw(st.integers(1, min(3, len(metrics))))
+    return table, comparable, metrics[:chosen]
+
+
+NAMED = re.compile(r"M\d\d")
+
+
+@settings(max_examples=500, deadline=None)
+@given(outcome_tables())
+def test_the_best_measure_sentence_states_the_tables_counts_and_names_only_the_tied_best(drawn):
+    table, comparable, _ = drawn
+    text = sentence(table, comparable=lambda m: m in comparable)
+    assert set(NAMED.findall(text)) <= {label(m) for m in comparable}
+    if not comparable:
+        assert text.startswith("No measure is on one scale across tasks")
+        return
+    summary = tables({m: r for m, r in table.items() if m in comparable})[0]
+    summary = summary.assign(net=summary["agreements"] - summary["contradictions"])
+    relations = len(next(iter(table.values())))
+    top = summary[summary["net"] == summary["net"].max()]
+    top = top[top["agreements"] == top["agreements"].max()]
+    bottom = summary[summary["contradictions"] == summary["contradictions"].max()]
+    bottom = bottom[bottom["net"] == bottom["net"].min()]
+    assert text.startswith(f"Of the {len(summary)} measure")
+    agreeing, contradicting = text.split("; ", 1)
+    assert set(NAMED.findall(agreeing)) <= {label(m) for m in top["metric"]}
+    if "none agrees significantly" in agreeing:
+        assert summary["agreements"].max() == 0
+    elif "more often than it contradicts" in agreeing:
+        assert summary["net"].max() <= 0 and top["agreements"].max() == 0
+    else:
+        assert top["agreements"].iloc[0] > 0
+        counted = re.search(r"(\d+) measures agree", agreeing)
+        named = NAMED.findall(agreeing.split(", e.g.")[0])
+        if counted:
+            assert int(counted.group(1)) == len(top) > 3
+        elif re.search(r"(both|all \d+) agree", agreeing):
+            assert len(top) == len(summary)
+            everyone = re.search(r"all (\d+) agree", agreeing)
+            assert everyone is None or int(everyone.group(1)) == len(summary)
+        else:
+            assert set(named) == {label(m) for m in top["metric"]}
+        share = re.search(r"\((\d+) of (\d+)( each)?\)", agreeing)
+        if share:
+            assert (int(share.group(1)), int(share.group(2))) == (top["agreements"].iloc[0], relations)
+            assert bool(share.group(3)) == (len(top) > 1)
+        if "every known relation" in agreeing:
+            assert (summary["agreements"] == relations).all()
+    if "no measure contradicts" in contradicting:
+        assert summary["contradictions"].max() == 0
+    else:
+        subject = contradicting.split(" contradict")[0]
+        counted = re.match(r"(\d+) measures", subject)
+        if counted:
+            assert int(counted.group(1)) == len(bottom) > 3
+        elif subject not in ("both",) and not subject.startswith("all "):
+            assert set(NAMED.findall(subject)) == {label(m) for m in bottom["metric"]}
+        else:
+            assert len(bottom) == len(summary)
+        share = re.search(r"\((\d+) of (\d+)( each)?\)", contradicting)
+        if share:
+            assert (int(share.group(1)), int(share.group(2))) == (bottom["contradictions"].iloc[0], relations)
+        example = NAMED.findall(contradicting.split("for example, ")[1])
+        assert set(example) <= {label(m) for m in bottom["metric"]}
+
+
+@settings(max_examples=500, deadline=None)
+@given(outcome_tables())
+def test_the_primary_sentence_states_the_tables_counts(drawn):
+    table, _, chosen = drawn
+    text = primary(table, chosen)
+    relations = len(next(iter(table.values())))
+    outcomes = [o for m in chosen for o in table[m]]
+    assert set(NAMED.findall(text)) <= {label(m) for m in chosen}
+    if relations > 1:
+        assert text.startswith(f"Against the {relations} known complexity relations, ")
+    none = re.search(r"none of the (\d+) verdicts of .* is significant", text)
+    if none:
+        assert int(none.group(1)) == len(outcomes)
+        assert not set(outcomes) & {"agree", "contradict", "uninformative"}
+        for o in ("not significant", "undefined"):
+            stated = re.search(rf"(\d+) (?:is |are )?{o}", text)
+            assert (int(stated.group(1)) if stated else 0) == outcomes.count(o)
+        return
+    for m in chosen:
+        row = table[m]
+        if relations == 1:
+            word = {"agree": "agrees with it", "contradict": "contradicts it", "uninformative": "is uninformative on it",
+                    "not significant": "is not significant on it", "undefined": "is undefined on it"}[row[0]]
+            assert f"{label(m)} {word}" in text
+        elif row.count("uninformative") == relations:
+            assert f"{label(m)} is uninformative on every one" in text
+        else:
+            part = f"{label(m)} agrees with {row.count('agree')} and contradicts {row.count('contradict')}"
+            if row.count("uninformative"):
+                part += f" and is uninformative on {row.count('uninformative')}"
+            assert part + ";" in text or part + " (" in text
+    if relations > 1:
+        counts = {o: outcomes.count(o) for o in ("not significant", "undefined")}
+        rest = sum(counts.values())
+        tail = text.split("(Welch's test, p < 0.05", 1)[1]
+        if rest == 0:
+            assert tail == ")."
+        elif all(counts.values()):
+            ns = counts["not significant"]
+            assert tail == (f"; of the other {rest} verdicts, {ns} {'is' if ns == 1 else 'are'} not significant and "
+                            f"{counts['undefined']} undefined).")
+        else:
+            o = next(o for o, n in counts.items() if n)
+            assert tail == (f"; the other verdict is {o})." if rest == 1 else f"; the other {rest} verdicts are {o}).")
