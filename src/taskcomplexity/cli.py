@@ -98,7 +98,8 @@ def check_output_paths(argv: list[str]) -> None:
     (``paths.outputs=…``, ``paths.cache=…`` or ``TASKCOMPLEXITY_OUTPUTS``), and a full disk under them, before
     Hydra creates its run directory there. An existing cache that is read-only is accepted: it serves what it
     holds (:meth:`~taskcomplexity.stages.cache.Cache.require_writable` refuses anything it lacks)."""
-    from taskcomplexity.stages.cache import check_free_space, ensure_writable, read_only
+    from taskcomplexity.stages.cache import ensure_writable, read_only
+    from taskcomplexity.stages.resources import check_free_space
 
     given = dict(arg.lstrip("+~").split("=", 1) for arg in argv[1:] if "=" in arg and not arg.startswith("-"))
     for key in ("paths.outputs", "paths.cache"):

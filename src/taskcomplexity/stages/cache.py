@@ -14,7 +14,6 @@ Temporary directories of processes that died are removed by the next writer of t
 from __future__ import annotations
 
 import contextlib
-import errno
 import hashlib
 import json
 import logging
@@ -83,17 +82,6 @@ def read_only(root: Path) -> bool:
     """Whether ``root`` is an existing directory this process can read but not write (a shared cache on a
     read-only mount, or another user's)."""
     return root.is_dir() and os.access(root, os.R_OK | os.X_OK) and not os.access(root, os.W_OK)
-
-
-MIN_FREE_BYTES = 1 << 20
-"""Below this much free space a run could not even write its config and log: refused up front."""
-
-
-def check_free_space(root: Path) -> None:
-    """Raise the disk-full ``OSError`` (naming ``root``) when its filesystem has almost no space left."""
-    free = shutil.disk_usage(root).free
-    if free < MIN_FREE_BYTES:
-        raise OSError(errno.ENOSPC, f"No space left on device ({human_bytes(free)} free)", str(root))
 
 
 def check_writable(outputs: Path, cache: Cache) -> None:

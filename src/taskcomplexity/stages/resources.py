@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import errno
 import os
+import shutil
+from pathlib import Path
 
 from taskcomplexity.errors import ConfigError
 
+MIN_FREE_BYTES = 1 << 20
+"""Below this much free space a run could not even write its config and log: refused up front."""
 MEMORY_SHARE = 0.8
 """The share of the machine's memory a run may plan to use (the rest is the system's and the libraries')."""
 
@@ -33,3 +38,10 @@ def refuse_beyond_memory(need: float, what: str, advice: str) -> None:
     if need > MEMORY_SHARE * total:
         raise ConfigError(f"{what} needs about {human_bytes(need)} of memory, this machine has "
                           f"{human_bytes(total)} ({advice})")
+
+
+def check_free_space(root: Path) -> None:
+    """Raise the disk-full ``OSError`` (naming ``root``) when its filesystem has almost no space left."""
+    free = shutil.disk_usage(root).free
+    if free < MIN_FREE_BYTES:
+        raise OSError(errno.ENOSPC, f"No space left on device ({human_bytes(free)} free)", str(root))
