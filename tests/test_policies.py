@@ -1,4 +1,5 @@
-"""Batched random policies: one forward pass over P policies equals P separate MLPs."""
+"""Batched random policies: one forward pass over P policies equals P separate MLPs; every registered family
+honours the declared interface of the backends it lists, and is refused by the others."""
 
 from __future__ import annotations
 
@@ -13,11 +14,22 @@ from gymnasium import spaces
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.policies.families import (
+    BACKEND_CALLS,
+    FAMILIES,
+    ActingBatch,
+    FamilySpec,
+    SteppedBatch,
+    missing_calls,
+    network_from_config,
+    sample_family,
+)
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
-from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.rwg import BACKENDS, RWGSettings, run_rwg
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.rwg_stage import NUMERICS, STAGE, RWGRequest
 from taskcomplexity.tasks.base import decode_actions
+from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
 
 
@@ -61,7 +73,7 @@ def test_the_forward_pass_threads_belong_to_the_batch_and_end_with_it():
     batch.close()
 
 
-# -- the original PIC/POIC family (issue 14) ----------------------------------------------------------
+# -- the original PIC/POIC family (tanh MLPs with a linear output) -----------------------------------
 FAMILY = [NetworkSpec(hidden=(), activation="tanh", output="linear"),
           NetworkSpec(hidden=(4,), activation="tanh", output="linear", input_bias=True),
           NetworkSpec(hidden=(64, 64), activation="tanh", output="linear")]
@@ -150,3 +162,85 @@ def test_the_family_options_build(name):
     for prior in ("normal", "uniform", "xavier_normal_tanh", "xavier_uniform_tanh"):
         spec = build(PriorSpec, yaml.safe_load((CONF_DIR / "prior" / f"{prior}.yaml").read_text()), "prior")
         assert spec.gain == (5 / 3 if prior.endswith("tanh") else 1.0)
+
+
+# -- every registered family (docs/how-to/add-a-policy-family.md) --------------------------------------------
+TASKS = {"batched": ("one_link_1m0", "dense"), "pybullet": ("one_link_1m0", "dense"), "gym": "CartPole-v1",
+         "kernel": "Pendulum-v1"}
+"""A task per backend: a reaching arm for the arms' backends, a Discrete and a Box classic-control task for
+gymnasium's."""
+DECLARED = [(name, backend) for name, spec in FAMILIES.items() for backend in spec.backends]
+REFUSED = [(name, backend) for name, spec in FAMILIES.items() for backend in BACKENDS if backend not in spec.backends]
+
+
+def _task(backend: str):
+    where = TASKS[backend]
+    return make_task(*where) if isinstance(where, tuple) else GymTask(where)
+
+
+@pytest.mark.parametrize("name", sorted(FAMILIES))
+def test_a_family_is_registered_under_its_name_with_a_config_option_and_backends_rwg_has(name):
+    spec = FAMILIES[name]()
+    assert isinstance(spec, FamilySpec) and spec.family == name
+    assert network_from_config({"family": name}) == spec
+    assert spec.backends and set(spec.backends) <= set(BACKENDS), spec.backends
+    options = {p.stem: yaml.safe_load(p.read_text()) or {} for p in (CONF_DIR / "network").glob("*.yaml")}
+    assert any(node.get("family", "mlp") == name for node in options.values()), f"no network option has family {name}"
+    assert isinstance(spec.identity(), dict) and spec.tag and spec.describe()
+    assert spec.working_floats(6, 2, 100) > 0
+
+
+@pytest.mark.parametrize(("name", "backend"), DECLARED)
+def test_a_familys_batch_answers_the_calls_of_each_backend_it_lists(name, backend):
+    """The members the backend calls are there (BACKEND_CALLS), ``select`` keeps the sampling indices, and a
+    policy is a function of (seed, n) alone: the same sampled alone or among others, to the last bit."""
+    task, spec = _task(backend), FAMILIES[name]()
+    batch = sample_family(task, spec, PriorSpec(), 3, np.arange(2, 6))
+    assert missing_calls(batch, backend) == [] and isinstance(batch, BACKEND_CALLS[backend])
+    assert len(batch) == 4 and list(batch.indices) == [2, 3, 4, 5]
+    assert list(batch.select(1).indices) == [3] and len(batch.select(1)) == 1
+    some = batch.select(np.array([1, 2]))
+    alone = sample_family(task, spec, PriorSpec(), 3, np.array([3, 4]))
+    assert list(some.indices) == [3, 4]
+    x = torch.from_numpy(np.random.default_rng(0).normal(0.0, 1.0, (2, 5, task.observation_size)))
+    with some, alone:
+        if isinstance(batch, ActingBatch):
+            outputs = some.act(x).numpy()
+            assert outputs.shape == (2, 5, task.action_size)
+            np.testing.assert_array_equal(outputs, alone.act(x).numpy())
+            unit = some.unit_outputs(outputs, True)
+            assert unit.shape == outputs.shape and np.all(np.abs(unit) <= 1.0)
+        if isinstance(batch, SteppedBatch):
+            ours, theirs = some.begin(x), alone.begin(x)
+            for _ in range(3):
+                (action, ours), (expected, theirs) = some.respond(x, ours), alone.respond(x, theirs)
+                assert action.shape == (2, 5, task.action_size) and bool((action.abs() <= 1.0).all())
+                np.testing.assert_array_equal(action.numpy(), expected.numpy())
+
+
+@pytest.mark.parametrize(("name", "backend"), DECLARED)
+def test_a_family_runs_rwg_on_each_backend_it_lists(name, backend):
+    task = _task(backend)
+    chunk = run_rwg(task, FAMILIES[name](), PriorSpec(), RWGSettings(policies=3, episodes=2, seed=1, chunk_policies=2),
+                    backend)
+    assert chunk.returns.shape == (3, 2) and np.isfinite(chunk.returns).all() and list(chunk.policy) == [0, 1, 2]
+    assert (chunk.steps >= 1).all()
+
+
+@pytest.mark.parametrize(("name", "backend"), REFUSED)
+def test_a_backend_a_family_does_not_list_is_refused_in_one_line_before_any_work(name, backend):
+    task, spec = _task(backend), FAMILIES[name]()
+    with pytest.raises(ConfigError, match=rf"^network.family={name} cannot run on backend={backend} for task "
+                                          rf"{task.task_id}: the family runs on {', '.join(spec.backends)}") as err:
+        run_rwg(task, spec, PriorSpec(), RWGSettings(policies=2, episodes=2), backend)
+    assert "\n" not in str(err.value)
+
+
+def test_a_batch_without_the_calls_of_a_backend_is_refused_by_name_not_an_attribute_error():
+    """A family whose ``backends`` lists one its batch cannot answer: the backend's missing calls are named."""
+    from taskcomplexity.rwg import run_batch
+
+    steps_only = sample_family(make_task("one_link_1m0", "dense"), FAMILIES["dmp"](), PriorSpec(), 0, np.arange(2))
+    with pytest.raises(TypeError, match=r"^backend=kernel cannot run a PrimitiveBatch: it lacks act, unit_outputs "
+                                        r"\(the backend's calls: taskcomplexity.policies.families.ActingBatch\)$"):
+        run_batch(GymTask("Pendulum-v1"), steps_only, "kernel", seed=0, episodes=2)

@@ -1,4 +1,5 @@
-"""The movement-primitive family (network=dmp): its controller, its backends, its config (issue 18, proposal 1)."""
+"""The movement-primitive family (network=dmp, the paper's first proposal): its controller, its backends, its
+config."""
 
 from __future__ import annotations
 
@@ -142,11 +143,16 @@ def test_config_picks_the_family_and_refuses_what_it_cannot_run():
         network_from_config({"family": "dmp", "movement_steps": 0})
     arm = make_task("two_link", "dense")
     assert resolve_backend(arm, "auto", SPEC) == "batched"
-    with pytest.raises(ConfigError, match="backend=gym is not available .* network.family=dmp .*allowed: auto, "
-                                          "batched, pybullet"):
+    with pytest.raises(ConfigError, match=r"^network.family=dmp cannot run on backend=gym for task two_link-dense: "
+                                          r"the family runs on batched, pybullet \(allowed: auto, batched, pybullet\)$"):
         resolve_backend(arm, "gym", SPEC)
-    with pytest.raises(ConfigError, match="network.family=dmp is not available for task Pendulum-v1"):
+    with pytest.raises(ConfigError, match=r"^network.family=dmp cannot run on backend=auto for task Pendulum-v1: the "
+                                          r"family runs on batched, pybullet, the task on kernel, gym \(allowed: "
+                                          r"another network.family\)$"):
         resolve_backend(GymTask("Pendulum-v1"), "auto", SPEC)
+    with pytest.raises(ConfigError, match=r"^backend=kernel is not available for task two_link-dense with "
+                                          r"network.family=dmp \(allowed: auto, batched, pybullet\)$"):
+        resolve_backend(arm, "kernel", SPEC)
     with pytest.raises(ConfigError, match="needs a reaching arm"):
         sample_family(GymTask("Pendulum-v1"), SPEC, PriorSpec(), 0, np.arange(2))
 

@@ -63,6 +63,9 @@ class NetworkSpec:
         decode tanh(output), i.e. high·tanh(output) for symmetric bounds (as in the original family).
     family : str
         ``mlp`` (:mod:`taskcomplexity.policies.families` declares the others).
+    backends : tuple of str
+        Every RWG backend: a :class:`PolicyBatch` steps on the reaching arms' (``begin``/``respond``) and acts
+        on gymnasium's (``act``/``unit_outputs``), and the ``batched`` backend's fused rollout runs it whole.
     """
 
     hidden: tuple[int, ...] = (32, 32)
@@ -73,6 +76,7 @@ class NetworkSpec:
     family: str = "mlp"
 
     ADDED: ClassVar[dict] = {"activation": "relu", "input_bias": False, "output": "tanh", "family": "mlp"}
+    backends: ClassVar[tuple[str, ...]] = ("batched", "pybullet", "gym", "kernel")
 
     def validate(self) -> None:
         if self.family != "mlp":
@@ -107,6 +111,10 @@ class NetworkSpec:
     def working_floats(self, observation_size: int, action_size: int, max_steps: int) -> int:
         """Floats of activations and temporaries one environment holds during a forward pass."""
         return 4 * (max(self.hidden, default=0) + observation_size + 4 * action_size + 16)
+
+    def sample(self, task, prior: PriorSpec, seed: int, indices: np.ndarray) -> PolicyBatch:
+        """θₙ for every n in ``indices``, sized for ``task``'s observations and actions (:func:`sample_policies`)."""
+        return sample_policies(self, prior, task.observation_size, task.action_size, seed, indices)
 
 
 @dataclass(frozen=True)

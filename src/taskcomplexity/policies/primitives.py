@@ -67,6 +67,9 @@ class PrimitiveSpec:
         Tracking gain: the fraction of the needed velocity change asked of each action.
     substeps : int
         Euler sub-steps of the DMP integration per environment step.
+    backends : tuple of str
+        The reaching arms' ``batched`` and ``pybullet`` backends: a :class:`PrimitiveBatch` steps
+        (``begin``/``respond``) and has no ``act`` for gymnasium's.
     """
 
     family: str = FAMILY
@@ -78,6 +81,7 @@ class PrimitiveSpec:
     substeps: int = 10
 
     ADDED: ClassVar[dict] = {}
+    backends: ClassVar[tuple[str, ...]] = ("batched", "pybullet")
 
     def validate(self) -> None:
         if self.family != FAMILY:
@@ -116,6 +120,10 @@ class PrimitiveSpec:
     def working_floats(self, observation_size: int, action_size: int, max_steps: int) -> int:
         """Floats one environment holds while it runs (its trajectory and the controller's state)."""
         return (max_steps + 3) * action_size + self.basis * action_size + observation_size
+
+    def sample(self, task, prior: PriorSpec, seed: int, indices: np.ndarray) -> PrimitiveBatch:
+        """θₙ for every n in ``indices`` on ``task``, a reaching arm (:func:`sample_primitives`)."""
+        return sample_primitives(self, prior, task, seed, indices)
 
 
 def primitive_parameters(spec: PrimitiveSpec, prior: PriorSpec, joints: int, seed: int, policy: int) -> np.ndarray:
@@ -232,7 +240,7 @@ class PrimitiveEpisodes:
 
 @dataclass
 class PrimitiveBatch:
-    """P DMP policies of one family on one arm (the counterpart of :class:`~taskcomplexity.policies.PolicyBatch`).
+    """P DMP policies of one family on one arm (the counterpart of :class:`~taskcomplexity.policies.mlp.PolicyBatch`).
 
     Attributes
     ----------
@@ -262,7 +270,8 @@ class PrimitiveBatch:
         self.close()
 
     def close(self) -> None:
-        """End the threads :meth:`respond` splits a large batch over (the counterpart of :meth:`PolicyBatch.close`)."""
+        """End the threads :meth:`respond` splits a large batch over (the counterpart of
+        :meth:`~taskcomplexity.policies.mlp.PolicyBatch.close`)."""
         if self._workers is not None:
             self._workers.shutdown()
             self._workers = None

@@ -8,8 +8,9 @@ that policy's episodes e = j, j + W, j + 2W, … one after another, each reset w
 step. Returns therefore depend only on (task, policy n, episode e, seed), not on the pool's size,
 the chunking or the sharding.
 
-Actions: Box spaces get the policy's (−1, 1) outputs mapped affinely onto [low, high]; Discrete
-spaces the argmax of the outputs. Observations: Box flattened, Discrete one-hot (float64).
+The policies are any :class:`~taskcomplexity.policies.families.ActingBatch`: one ``act`` over every slot per
+step, read through ``unit_outputs``. Actions: Box spaces get those (−1, 1) outputs mapped affinely onto
+[low, high]; Discrete spaces their argmax. Observations: Box flattened, Discrete one-hot (float64).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 import torch
 from gymnasium import spaces
 
-from taskcomplexity.policies.mlp import PolicyBatch
+from taskcomplexity.policies.families import ActingBatch
 from taskcomplexity.rwg.env_checks import check_observation, check_reward, reset_env, step_env
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
@@ -60,12 +61,12 @@ class GymRollout:
             self.envs.append(self.task.make_env())
         return self.envs[:size]
 
-    def run(self, policies: PolicyBatch, seed: int, episodes: int, common_initial_states: bool = False):
+    def run(self, policies: ActingBatch, seed: int, episodes: int, common_initial_states: bool = False):
         """Every episode of every policy of the batch.
 
         Parameters
         ----------
-        policies : PolicyBatch of P policies (indices n)
+        policies : ActingBatch of P policies (indices n)
         seed : int
             Run seed (reset seeds of the episodes).
         episodes : int
@@ -83,7 +84,7 @@ class GymRollout:
         n_pol = len(policies)
         width = slots_per_policy(n_pol, episodes)
         envs = self._pool(n_pol * width)
-        rows = policies.indices[:, None] * (not common_initial_states)  # issue 14: common initial states
+        rows = policies.indices[:, None] * (not common_initial_states)  # common: every policy resets as policy 0
         seeds = episode_reset_seeds(seed, rows, np.arange(episodes)[None, :])
         returns = np.zeros((n_pol, episodes))
         steps = np.zeros((n_pol, episodes), dtype=np.int64)
@@ -107,7 +108,7 @@ class GymRollout:
         with torch.no_grad():
             while active.any():
                 outputs = policies.act(torch.from_numpy(obs.reshape(n_pol, width, -1))).numpy()
-                outputs = policies.unit_outputs(outputs, isinstance(space_out, spaces.Box))  # issue 14
+                outputs = policies.unit_outputs(outputs, isinstance(space_out, spaces.Box))  # (−1, 1) for a Box
                 actions = decode_actions(space_out, outputs.reshape(n_pol * width, -1))
                 for slot in np.flatnonzero(active):
                     p, e = slot_policy[slot], slot_episode[slot]

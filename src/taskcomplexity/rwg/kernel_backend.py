@@ -1,12 +1,13 @@
 """The ``kernel`` RWG backend: gymnasium's classic-control tasks on batched numba kernels.
 
 All M episodes of all P policies of a chunk run at once: one batched policy forward pass
-(:meth:`PolicyBatch.act`, the same NumPy code the ``gym`` backend runs) and one parallel numba step
-(:func:`taskcomplexity.tasks.classic.kernels.step_all`) per environment step. Episode e of policy n
-starts from the state ``env.reset(seed=episode_reset_seeds(seed, n, e))`` would draw, so the returns
-equal the ``gym`` backend's (``tests/tasks/test_classic_kernels.py`` states the tolerance). An env whose
-step draws random numbers (the noisy CartPole) carries each episode's generator along with its state
-(four uint64 words per slot), continued from the reset's draws as the env continues its ``np_random``.
+(:meth:`~taskcomplexity.policies.families.ActingBatch.act`, read through ``unit_outputs`` as the ``gym``
+backend reads it) and one parallel numba step (:func:`taskcomplexity.tasks.classic.kernels.step_all`) per
+environment step. Episode e of policy n starts from the state that
+``env.reset(seed=episode_reset_seeds(seed, n, e))`` would draw, so the returns equal the ``gym`` backend's
+(``tests/tasks/test_classic_kernels.py`` states the tolerance). An env whose step draws random numbers (the
+noisy CartPole) carries each episode's generator along with its state (four uint64 words per slot),
+continued from the reset's draws as the env continues its ``np_random``.
 
 Random policies end their episodes at very different times: once fewer than COMPACT_BELOW of the
 slots run, the running episodes of each policy are packed to the front and the forward pass shrinks to
@@ -20,7 +21,7 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies.mlp import PolicyBatch, select_policies
+from taskcomplexity.policies.families import ActingBatch
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.classic import ClassicKernel, kernel_for
 from taskcomplexity.tasks.classic.kernels import observe_all, step_all, step_serial
@@ -46,13 +47,13 @@ def reset_seeds(seed: int, indices: np.ndarray, episodes: int, common_initial_st
     return episode_reset_seeds(seed, rows, np.arange(episodes)[None, :])
 
 
-def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_initial_states: bool = False):
+def run_kernel(task, policies: ActingBatch, seed: int, episodes: int, common_initial_states: bool = False):
     """Every episode of every policy of the batch.
 
     Parameters
     ----------
     task : GymTask with a kernel
-    policies : PolicyBatch of P policies (indices n)
+    policies : ActingBatch of P policies (indices n)
     seed : int
         Run seed.
     episodes : int
@@ -101,7 +102,7 @@ def run_kernel(task, policies: PolicyBatch, seed: int, episodes: int, common_ini
                 state, generators, obs, running, returns, steps, index = (
                     a[slots.ravel()] for a in (state, generators, obs, running, returns, steps, index)
                 )
-                active, width = select_policies(active, rows), slots.shape[1]
+                active, width = active.select(rows), slots.shape[1]
     all_returns[index], all_steps[index] = returns, steps
     shape = (n_pol, episodes)
     return all_returns.reshape(shape), all_steps.reshape(shape), np.zeros(shape, dtype=bool)

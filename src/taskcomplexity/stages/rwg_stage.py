@@ -23,8 +23,8 @@ import pandas as pd
 
 from taskcomplexity.config import canonical, result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
+from taskcomplexity.policies.families import FamilySpec
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
-from taskcomplexity.policies.primitives import PrimitiveSpec
 from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import AUTO, ReturnChunk, RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
@@ -40,7 +40,8 @@ log = logging.getLogger(__name__)
 STAGE = "rwg"
 EPISODES = (
     "policies.mlp", "policies.primitives", "policies.movement_primitives", "seeding",
-    "rwg", "rwg.kernel_backend", "rwg.gym_backend",
+    "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.arm_resets", "rwg.batched_backend",
+    "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend",
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
     "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
     "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets",
@@ -61,7 +62,7 @@ class RWGRequest:
     """
 
     task: Task
-    network: NetworkSpec | PrimitiveSpec
+    network: FamilySpec
     prior: PriorSpec
     settings: RWGSettings
     backend: str = AUTO
