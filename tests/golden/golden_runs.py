@@ -7,13 +7,24 @@ the versions of the stages upstream of it (``records.json``). After a deliberate
 version bump) re-record::
 
     PYTHONPATH=src python tests/golden/golden_runs.py --record            # every stage
-    PYTHONPATH=src python tests/golden/golden_runs.py --record sac        # one (the chain runs anyway)
+    PYTHONPATH=src python tests/golden/golden_runs.py --record sac        # one (it runs what it reads)
     PYTHONPATH=src python tests/golden/golden_runs.py                     # compare only, print the verdicts
+
+The stages are those of the stage records (:data:`taskcomplexity.study.chain.CHAIN`); each stage's golden run
+is one function declared with ``@golden("<stage>")`` (:class:`Case`), which computes its artefacts through one
+shared cache (:class:`Runs`) and names the stages whose versions its record holds (by default those its record
+reads). A declared stage without a golden run, or a golden run without a record, is skipped with the line that
+says how to add or record it.
 
 What is recorded is every parquet column and ``.npz`` array of the artefact, with its name, never the parquet
 bytes (they carry library metadata); wall-clock columns (``time/…``) and manifests are left out. Integers,
 booleans and labels must be equal; floats within :data:`TOLERANCE` (its docstring says why that size). A
 disagreement names the case, file and column, the first differing value and its relative difference.
+
+Every recorded value is compared: a recorded case, file, column or row that is gone, changed or moved fails. A
+value that is not recorded (a new metric's columns, the rows of its metric in a tidy table such as the
+verdict's, a new file or case) is not compared and fails nothing: it is reported, with the command that records
+it (:func:`additions`, :func:`unrecorded_note`).
 
 Every run pins numba, BLAS, OpenMP and torch to one thread, so the values do not depend on the machine's
 cores. The whole chain takes about a minute.
@@ -24,11 +35,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import functools
 import json
 import re
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -41,15 +53,8 @@ VALUES = HERE / "values"
 LEFT_OUT = ("time/",)
 """Column prefixes that hold no number of the stage (wall-clock durations)."""
 RECORD = "PYTHONPATH=src python tests/golden/golden_runs.py --record"
-CPU_DEPENDENT = ("sac", "occupancy", "learning_path")
-"""Stages whose numbers come from float32 torch training, recorded per CPU kind (:func:`cpu_kind`) and compared
-within :data:`TOLERANCE` on a CPU of the same kind. Each gradient step carries a last-bit difference of the
-CPU's kernels (torch, MKL and oneDNN pick them by instruction set and vendor) into the next: between the AVX-512
-and AVX2 paths of one Intel CPU the actors' weights after the golden run's 300 steps differ by up to 3e-7
-(5e-5 relative on small weights) and the stages computed from them by up to 5e-9 relative. No tolerance
-measured on the kinds at hand covers a vendor's BLAS not yet seen, so a kind is recorded where it runs, and an
-unrecorded kind skips these three with the command that records it. The other stages' values agree within
-:data:`TOLERANCE` on every CPU."""
+TRAINED = "sac"
+"""The stage whose numbers come from float32 torch training (see :data:`CPU_DEPENDENT`)."""
 
 
 @dataclass(frozen=True)
@@ -145,12 +150,40 @@ def artefact_values(directory: Path) -> Values:
     return values
 
 
+KEY = "metric"
+"""The column that names what a row of a tidy table is about (the verdict's metric × relation rows): rows of a
+metric that is not recorded are new, not changed."""
+
+
+def recorded_part(now: Values, recorded: Values) -> tuple[Values, list[str]]:
+    """``now`` restricted to what ``recorded`` holds, and the names of the rest: files and columns not recorded,
+    and the rows of a tidy table (a file with a :data:`KEY` column) whose metric is not recorded."""
+    rows: dict[str, np.ndarray] = {}
+    new: list[str] = []
+    for name, value in now.items():
+        file, _, column = name.partition(" › ")
+        if column == KEY and name in recorded and value.ndim == 1:
+            rows[file] = np.isin(value, recorded[name])
+            new += [f"{file} › rows of {KEY} {label}" for label in dict.fromkeys(value[~rows[file]].tolist())]
+    kept: Values = {}
+    for name, value in now.items():
+        if name not in recorded:
+            new.append(name)
+            continue
+        known = rows.get(name.partition(" › ")[0])
+        kept[name] = value[known] if known is not None and value.ndim >= 1 and len(value) == len(known) else value
+    return kept, new
+
+
 def difference(now: Values, recorded: Values, tolerance: Tolerance = TOLERANCE) -> str | None:
-    """The first disagreement of two artefacts' values in one line (None: they agree)."""
+    """The first disagreement of an artefact's values with the recorded ones, in one line (None: every recorded
+    value is there and agrees). What is not recorded (:func:`recorded_part`) is no disagreement."""
+    now, _ = recorded_part(now, recorded)
+    gone = [n for n in recorded if n not in now]
+    if gone:
+        return f"recorded files or columns are gone (recorded only: {', '.join(gone)})"
     if list(now) != list(recorded):
-        gone, new = [n for n in recorded if n not in now], [n for n in now if n not in recorded]
-        return (f"its files or columns differ (recorded only: {', '.join(gone) or '-'}; now only: "
-                f"{', '.join(new) or '-'}; or their order)" if gone or new else "its columns are in another order")
+        return "its columns are in another order"
     for name, value in now.items():
         then = recorded[name]
         if value.shape != then.shape or value.dtype.kind != then.dtype.kind:
@@ -208,113 +241,257 @@ def one_thread() -> Iterator[None]:
         torch.set_num_threads(torch_threads)
 
 
-def _version(stage: str) -> int:
-    import importlib
+class Runs:
+    """What the golden cases share: one cache under ``root``, the tiny settings, and the artefacts several cases
+    read (the 1-link dense task's returns, its SAC run), each computed once (a later request is a cache hit)."""
 
-    return importlib.import_module(f"taskcomplexity.stages.{stage}_stage").NUMERICS.version
+    def __init__(self, root: Path) -> None:
+        from taskcomplexity.rl.settings import SACSettings
+        from taskcomplexity.stages.cache import Cache
+        from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings
+        from taskcomplexity.stages.metrics_stage import MetricsSettings
+        from taskcomplexity.tasks.spec import make_task
 
+        self.cache = Cache(root)
+        self.one_link = make_task("one_link_1m0", "dense")
+        self.estimators = MetricsSettings(bins=16, resamples=20, batches=2)
+        self.diagnostics = DiagnosticsSettings(repeats=2, bins_sweep=(4, 16), subsample_fractions=(0.5, 1.0),
+                                               knn_max_samples=100, knn_episodes_per_policy=4)
+        self.sac_settings = SACSettings(hidden_sizes=(32, 32), batch_size=32, total_steps=300, warmup_steps=100,
+                                        eval_every=100, eval_episodes=2, checkpoint_every=100, seeds=(0, 1),
+                                        num_threads=1)
 
-def run_all(root: Path) -> dict[str, Golden]:
-    """Every stage's golden run in a fresh cache under ``root``: {stage: Golden}."""
-    with one_thread():
-        return _chain(root)
+    def rwg(self, task, policies: int, episodes: int, *, network=None, backend: str = "batched", **settings):
+        """(RWG request, artefact) of ``task`` at N = ``policies``, M = ``episodes``, seed 3."""
+        from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+        from taskcomplexity.rwg import RWGSettings
+        from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
 
-
-def _chain(root: Path) -> dict[str, Golden]:
-    from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
-    from taskcomplexity.policies.primitives import PrimitiveSpec
-    from taskcomplexity.rl import protocol_variants
-    from taskcomplexity.rl.settings import SACSettings
-    from taskcomplexity.rl.snapshots import ACTORS_FILE
-    from taskcomplexity.rwg import RWGSettings
-    from taskcomplexity.stages.cache import Cache
-    from taskcomplexity.stages.diagnostics_stage import DiagnosticsSettings, run_diagnostics_stage
-    from taskcomplexity.stages.learning_path_stage import LearningPathSettings, run_learning_path_stage
-    from taskcomplexity.stages.metrics_stage import MetricsSettings, run_metrics_stage
-    from taskcomplexity.stages.occupancy_stage import OccupancySettings, run_occupancy_stage
-    from taskcomplexity.stages.primitives_stage import PrimitivesSettings, run_primitives_stage
-    from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
-    from taskcomplexity.stages.sac_stage import run_sac_stage
-    from taskcomplexity.stages.verdict_stage import run_verdict_stage
-    from taskcomplexity.study_data import load_study_file
-    from taskcomplexity.tasks.gym_task import GymTask
-    from taskcomplexity.tasks.spec import make_task, task_from_id
-
-    cache = Cache(root)
-    v = {s: _version(s) for s in ("rwg", "metrics", "diagnostics", "primitives", "sac", "occupancy",
-                                  "learning_path", "verdict")}
-    golden = {
-        "rwg": Golden("rwg", v["rwg"], {}),
-        "metrics": Golden("metrics", v["metrics"], {"rwg": v["rwg"]}),
-        "diagnostics": Golden("diagnostics", v["diagnostics"], {"rwg": v["rwg"]}),
-        "primitives": Golden("primitives", v["primitives"], {"rwg": v["rwg"]}),
-        "sac": Golden("sac", v["sac"], {}),
-        "occupancy": Golden("occupancy", v["occupancy"], {"sac": v["sac"]}),
-        "learning_path": Golden("learning_path", v["learning_path"], {"sac": v["sac"]}),
-        "verdict": Golden("verdict", v["verdict"], {"rwg": v["rwg"], "metrics": v["metrics"],
-                                                    "diagnostics": v["diagnostics"]}),
-    }
-
-    def rwg(task, policies, episodes, *, network=None, backend="batched", **settings):
         request = RWGRequest(task, network or NetworkSpec(), PriorSpec(),
                              RWGSettings(policies=policies, episodes=episodes, seed=3, **settings), backend)
-        return request, run_rwg_stage(cache, request)[0]
+        return request, run_rwg_stage(self.cache, request)[0]
 
-    # RWG: every backend and family, the contact model, a classic-control kernel and a gymnasium env
-    one_link = make_task("one_link_1m0", "dense")
+    @functools.cached_property
+    def returns(self):
+        """(request, artefact) of the 1-link dense task's RWG run that the stages on returns read."""
+        return self.rwg(self.one_link, 16, 4)
+
+    @functools.cached_property
+    def sac(self):
+        """The SAC artefact of the 1-link dense task (two seeds, 300 steps) that the actor stages read."""
+        from taskcomplexity.stages.sac_stage import run_sac_stage
+
+        return run_sac_stage(self.cache, self.one_link, self.sac_settings)[0]
+
+
+@dataclass(frozen=True)
+class Case:
+    """A stage's golden run: ``run(runs) -> {case name: artefact directory}`` at fixed tiny settings.
+
+    ``inputs`` are the stages whose versions its record holds; None: the stages its stage record reads
+    (:attr:`taskcomplexity.stages.stage.Stage.inputs`)."""
+
+    stage: str
+    run: Callable[[Runs], dict[str, Path]]
+    inputs: tuple[str, ...] | None = None
+
+
+CASES: dict[str, Case] = {}
+"""The golden run of each stage that has one (:func:`golden`), by stage name."""
+
+
+def golden(stage: str, *, inputs: tuple[str, ...] | None = None):
+    """Declare ``stage``'s golden run: the decorated ``run(runs) -> {case: artefact directory}``."""
+
+    def declare(run: Callable[[Runs], dict[str, Path]]) -> Callable[[Runs], dict[str, Path]]:
+        if stage in CASES:
+            raise ValueError(f"stage {stage} has two golden runs")
+        CASES[stage] = Case(stage, run, inputs)
+        return run
+
+    return declare
+
+
+@golden("rwg")
+def _rwg(runs: Runs) -> dict[str, Path]:
+    """Every backend and family, the contact model, a classic-control kernel and a gymnasium env."""
+    from taskcomplexity.policies.primitives import PrimitiveSpec
+    from taskcomplexity.tasks.gym_task import GymTask
+    from taskcomplexity.tasks.spec import make_task
+
     cases = {
-        "one_link_1m0-dense batched": rwg(one_link, 16, 4),
-        "two_link_obstacle contact model": rwg(make_task("two_link_obstacle"), 8, 3, contacts="model"),
-        "two_link-sparse pybullet": rwg(make_task("two_link", "sparse"), 2, 2, backend="pybullet"),
-        "Pendulum-v1 kernel": rwg(GymTask("Pendulum-v1"), 8, 2, backend="kernel"),
-        "CartPole-v1 gym": rwg(GymTask("CartPole-v1"), 4, 2, backend="gym"),
-        "one_link_1m65-dense dmp": rwg(make_task("one_link_1m65", "dense"), 8, 3, network=PrimitiveSpec()),
+        "one_link_1m0-dense batched": runs.returns,
+        "two_link_obstacle contact model": runs.rwg(make_task("two_link_obstacle"), 8, 3, contacts="model"),
+        "two_link-sparse pybullet": runs.rwg(make_task("two_link", "sparse"), 2, 2, backend="pybullet"),
+        "Pendulum-v1 kernel": runs.rwg(GymTask("Pendulum-v1"), 8, 2, backend="kernel"),
+        "CartPole-v1 gym": runs.rwg(GymTask("CartPole-v1"), 4, 2, backend="gym"),
+        "one_link_1m65-dense dmp": runs.rwg(make_task("one_link_1m65", "dense"), 8, 3, network=PrimitiveSpec()),
     }
-    golden["rwg"].values = {name: artefact_values(artefact.path) for name, (_, artefact) in cases.items()}
-    request, returns = cases["one_link_1m0-dense batched"]
+    return {name: artefact.path for name, (_, artefact) in cases.items()}
 
-    estimators = MetricsSettings(bins=16, resamples=20, batches=2)
-    metrics, _ = run_metrics_stage(cache, returns, estimators)
-    golden["metrics"].values = {"one_link_1m0-dense": artefact_values(metrics.path)}
-    diagnostics_settings = DiagnosticsSettings(repeats=2, bins_sweep=(4, 16), subsample_fractions=(0.5, 1.0),
-                                               knn_max_samples=100, knn_episodes_per_policy=4)
-    diagnostics, _ = run_diagnostics_stage(cache, returns, estimators, diagnostics_settings)
-    golden["diagnostics"].values = {"one_link_1m0-dense": artefact_values(diagnostics.path)}
+
+@golden("metrics")
+def _metrics(runs: Runs) -> dict[str, Path]:
+    from taskcomplexity.stages.metrics_stage import run_metrics_stage
+
+    return {"one_link_1m0-dense": run_metrics_stage(runs.cache, runs.returns[1], runs.estimators)[0].path}
+
+
+@golden("diagnostics")
+def _diagnostics(runs: Runs) -> dict[str, Path]:
+    from taskcomplexity.stages.diagnostics_stage import run_diagnostics_stage
+
+    artefact, _ = run_diagnostics_stage(runs.cache, runs.returns[1], runs.estimators, runs.diagnostics)
+    return {"one_link_1m0-dense": artefact.path}
+
+
+@golden("primitives")
+def _primitives(runs: Runs) -> dict[str, Path]:
+    from taskcomplexity.stages.primitives_stage import PrimitivesSettings, run_primitives_stage
+
     family = PrimitivesSettings(policies=8, episodes=3, bins=8, batches=2)
-    primitives, _ = run_primitives_stage(cache, family.request(request), estimators, family)
-    golden["primitives"].values = {"one_link_1m0-dense": artefact_values(primitives.path)}
+    artefact, _ = run_primitives_stage(runs.cache, family.request(runs.returns[0]), runs.estimators, family)
+    return {"one_link_1m0-dense": artefact.path}
 
-    # SAC: a few hundred steps of two seeds on the 1-link dense task, and of HER on the 2-link sparse task
-    sac = SACSettings(hidden_sizes=(32, 32), batch_size=32, total_steps=300, warmup_steps=100, eval_every=100,
-                      eval_episodes=2, checkpoint_every=100, seeds=(0, 1), num_threads=1)
-    plain, _ = run_sac_stage(cache, one_link, sac)
+
+@golden("sac")
+def _sac(runs: Runs) -> dict[str, Path]:
+    """A few hundred steps of two seeds on the 1-link dense task, and of HER on the 2-link sparse task."""
+    from taskcomplexity.rl import protocol_variants
+    from taskcomplexity.stages.sac_stage import run_sac_stage
+    from taskcomplexity.tasks.spec import make_task
+
     her_task = make_task("two_link", "sparse")
-    her = [variant for variant in protocol_variants(her_task, dataclasses.replace(sac, total_steps=200, seeds=(0,)))
+    her = [variant for variant in protocol_variants(her_task, dataclasses.replace(runs.sac_settings, total_steps=200,
+                                                                                  seeds=(0,)))
            if variant.her]
-    her_run, _ = run_sac_stage(cache, her_task, her[0])
-    golden["sac"].values = {"one_link_1m0-dense sac": artefact_values(plain.path),
-                            "two_link-sparse sac+her": artefact_values(her_run.path)}
+    her_run, _ = run_sac_stage(runs.cache, her_task, her[0])
+    return {"one_link_1m0-dense sac": runs.sac.path, "two_link-sparse sac+her": her_run.path}
 
-    actors = plain.path / ACTORS_FILE
-    occupancy, _ = run_occupancy_stage(cache, request, plain.key, actors,
-                                       OccupancySettings(policies=4, episodes=1, pairs=20, resamples=10, batches=2))
-    golden["occupancy"].values = {"one_link_1m0-dense": artefact_values(occupancy.path)}
-    path, _ = run_learning_path_stage(cache, request, plain.key, actors,
-                                      LearningPathSettings(policies=4, episodes=2, bins=4, batches=2), estimators)
-    golden["learning_path"].values = {"one_link_1m0-dense": artefact_values(path.path)}
 
-    # the verdict of a three-task study on its metrics and diagnostics
+@golden("occupancy")
+def _occupancy(runs: Runs) -> dict[str, Path]:
+    from taskcomplexity.rl.snapshots import ACTORS_FILE
+    from taskcomplexity.stages.occupancy_stage import OccupancySettings, run_occupancy_stage
+
+    settings = OccupancySettings(policies=4, episodes=1, pairs=20, resamples=10, batches=2)
+    artefact, _ = run_occupancy_stage(runs.cache, runs.returns[0], runs.sac.key, runs.sac.path / ACTORS_FILE,
+                                      settings)
+    return {"one_link_1m0-dense": artefact.path}
+
+
+@golden("learning_path")
+def _learning_path(runs: Runs) -> dict[str, Path]:
+    from taskcomplexity.rl.snapshots import ACTORS_FILE
+    from taskcomplexity.stages.learning_path_stage import LearningPathSettings, run_learning_path_stage
+
+    settings = LearningPathSettings(policies=4, episodes=2, bins=4, batches=2)
+    artefact, _ = run_learning_path_stage(runs.cache, runs.returns[0], runs.sac.key, runs.sac.path / ACTORS_FILE,
+                                          settings, runs.estimators)
+    return {"one_link_1m0-dense": artefact.path}
+
+
+@golden("verdict", inputs=("rwg", "metrics", "diagnostics"))
+def _verdict(runs: Runs) -> dict[str, Path]:
+    """The verdict of a three-task study on its metrics and diagnostics (no SAC: its inputs are those three)."""
     from taskcomplexity.cli import CONF_DIR
+    from taskcomplexity.stages.diagnostics_stage import run_diagnostics_stage
+    from taskcomplexity.stages.metrics_stage import run_metrics_stage
+    from taskcomplexity.stages.verdict_stage import run_verdict_stage
+    from taskcomplexity.study_data import load_study_file
+    from taskcomplexity.tasks.spec import task_from_id
 
     study = load_study_file(CONF_DIR / "study" / "seven_tasks.yaml")
     ids = ("one_link_1m0-dense", "one_link_1m65-dense", "two_link-dense")
-    per_task = {i: rwg(task_from_id(i), 16, 4)[1] for i in ids}
+    per_task = {i: runs.rwg(task_from_id(i), 16, 4)[1] for i in ids}
     verdict, _ = run_verdict_stage(
-        cache, study, {i: run_metrics_stage(cache, a, estimators)[0] for i, a in per_task.items()},
-        diagnostics={i: run_diagnostics_stage(cache, a, estimators, diagnostics_settings)[0]
+        runs.cache, study, {i: run_metrics_stage(runs.cache, a, runs.estimators)[0] for i, a in per_task.items()},
+        diagnostics={i: run_diagnostics_stage(runs.cache, a, runs.estimators, runs.diagnostics)[0]
                      for i, a in per_task.items()})
-    golden["verdict"].values = {"three tasks": artefact_values(verdict.path)}
-    return golden
+    return {"three tasks": verdict.path}
+
+
+def declared_stages() -> tuple[str, ...]:
+    """Every stage of a study's chain, in order, read from the stage records (the verdict last)."""
+    from taskcomplexity.study.chain import CHAIN
+
+    return tuple(stage.name for stage in CHAIN)
+
+
+def cpu_dependent() -> tuple[str, ...]:
+    """:data:`TRAINED` and every stage whose golden run reads its output at any depth (a case's inputs, or its
+    stage record's), in chain order."""
+    from taskcomplexity.study.chain import CHAIN
+
+    records = {record.name: record for record in CHAIN}
+
+    def inputs(stage: str) -> tuple[str, ...]:
+        case = CASES.get(stage)
+        return case.inputs if case is not None and case.inputs is not None else records[stage].inputs
+
+    def reads(stage: str) -> bool:
+        return stage == TRAINED or any(reads(source) for source in inputs(stage))
+
+    return tuple(stage for stage in records if reads(stage))
+
+
+CPU_DEPENDENT = cpu_dependent()
+"""The stages whose numbers come from float32 torch training: :data:`TRAINED` and every stage whose golden run
+reads its output (``sac``, ``occupancy``, ``learning_path``), recorded per CPU kind (:func:`cpu_kind`) and compared
+within :data:`TOLERANCE` on a CPU of the same kind. Each gradient step carries a last-bit difference of the
+CPU's kernels (torch, MKL and oneDNN pick them by instruction set and vendor) into the next: between the AVX-512
+and AVX2 paths of one Intel CPU the actors' weights after the golden run's 300 steps differ by up to 3e-7
+(5e-5 relative on small weights) and the stages computed from them by up to 5e-9 relative. No tolerance
+measured on the kinds at hand covers a vendor's BLAS not yet seen, so a kind is recorded where it runs, and an
+unrecorded kind skips them with the command that records it. The other stages' values agree within
+:data:`TOLERANCE` on every CPU."""
+
+
+class GoldenRuns(Mapping[str, Golden]):
+    """Every golden run (:data:`CASES`, in chain order), each computed on first access in one cache under
+    ``root`` with numba, BLAS/OpenMP and torch on one thread; the stages a run reads are computed through the
+    cache as far as it needs them."""
+
+    def __init__(self, root: Path) -> None:
+        self._root = Path(root)
+        self._done: dict[str, Golden] = {}
+        self._runs: Runs | None = None
+
+    def __getitem__(self, stage: str) -> Golden:
+        if stage not in self._done:
+            if stage not in CASES:
+                raise KeyError(f"stage {stage!r} has no golden run (those with one: {', '.join(self)})")
+            from taskcomplexity.study.chain import CHAIN
+
+            records = {record.name: record for record in CHAIN}
+            if stage not in records:
+                raise KeyError(f"stage {stage!r} has a golden run but no stage record (declared: "
+                               f"{', '.join(records)})")
+            case = CASES[stage]
+            inputs = records[stage].inputs if case.inputs is None else case.inputs
+            with one_thread():
+                if self._runs is None:
+                    self._runs = Runs(self._root)
+                values = {name: artefact_values(path) for name, path in case.run(self._runs).items()}
+            self._done[stage] = Golden(stage, records[stage].numerics.version,
+                                       {s: records[s].numerics.version for s in inputs}, values)
+        return self._done[stage]
+
+    def __contains__(self, stage: object) -> bool:
+        return stage in CASES
+
+    def __iter__(self) -> Iterator[str]:
+        order = {stage: i for i, stage in enumerate(declared_stages())}
+        return iter(sorted(CASES, key=lambda stage: order.get(stage, len(order))))
+
+    def __len__(self) -> int:
+        return len(CASES)
+
+
+def run_all(root: Path, stages=None) -> dict[str, Golden]:
+    """The golden runs of ``stages`` (default: every stage that has one) in a fresh cache under ``root``."""
+    runs = GoldenRuns(root)
+    return {stage: runs[stage] for stage in (runs if stages is None else stages)}
 
 
 def recorded() -> dict[str, dict]:
@@ -340,15 +517,44 @@ def unrecorded_cpu(stage: str, then: dict[str, dict]) -> str | None:
 
 
 def disagreement(golden: Golden, cases: dict[str, Values] | None) -> str | None:
-    """The first case whose values disagree with ``cases``, and how (None: every case agrees)."""
+    """The first recorded case whose values disagree now, and how (None: every recorded value agrees)."""
     if cases is None:
         return "nothing is recorded"
-    if set(cases) != set(golden.values):
-        return f"its cases are {sorted(golden.values)}, recorded {sorted(cases)}"
-    for case, values in golden.values.items():
-        differs = difference(values, cases[case])
+    gone = sorted(set(cases) - set(golden.values))
+    if gone:
+        return f"its recorded cases {gone} are gone (its cases are {sorted(golden.values)})"
+    for case, recorded_values_ in cases.items():
+        differs = difference(golden.values[case], recorded_values_)
         if differs:
             return f"case {case}, {differs}"
+    return None
+
+
+def additions(golden: Golden, cases: dict[str, Values] | None) -> list[str]:
+    """What a stage's golden run holds that is not recorded: its new cases, and each case's new files, columns and
+    tidy rows (:func:`recorded_part`). None of it fails a comparison; :func:`unrecorded_note` reports it."""
+    if cases is None:
+        return []
+    new = [f"case {case}" for case in golden.values if case not in cases]
+    return new + [f"{case} › {name}" for case, values in golden.values.items() if case in cases
+                  for name in recorded_part(values, cases[case])[1]]
+
+
+def unrecorded_note(stage: str, added: list[str]) -> str:
+    """One line naming what ``stage``'s golden run holds that is not recorded, and the command that records it."""
+    shown = ", ".join(added[:8]) + (f" and {len(added) - 8} more" if len(added) > 8 else "")
+    return (f"stage {stage}'s golden run holds values that are not recorded ({shown}): they are not compared "
+            f"until you record them with `{RECORD} {stage}`")
+
+
+def unrecorded_stage(stage: str, then: dict[str, dict]) -> str | None:
+    """Why ``stage`` cannot be compared at all (None: it can): a declared stage with no golden run here, or a
+    golden run with no record."""
+    if stage not in CASES:
+        return (f"stage {stage} has no golden run: declare one with @golden({stage!r}) in tests/golden/"
+                f"golden_runs.py and record it with `{RECORD} {stage}`")
+    if stage not in then:
+        return f"stage {stage} has no recorded golden run: record it with `{RECORD} {stage}`"
     return None
 
 
@@ -378,7 +584,8 @@ def problem(stage: str, now: dict[str, Golden], then: dict[str, dict],
     differs = disagreement(golden, values_of(stage))
     if differs is None:
         return None
-    upstream = [s for s in golden.inputs if not unrecorded_cpu(s, then) and disagreement(now[s], values_of(s))]
+    upstream = [s for s in golden.inputs
+                if s in now and not unrecorded_cpu(s, then) and disagreement(now[s], values_of(s))]
     if upstream:
         return f"stage {stage}'s inputs ({', '.join(upstream)}) changed their numbers: see their failures first"
     return (f"stage {stage}'s numbers changed without a version bump ({differs}): bump NUMERICS.version in "
@@ -401,23 +608,39 @@ def record(now: dict[str, Golden], stages: list[str]) -> None:
     RECORDS.write_text(json.dumps(dict(sorted(then.items())), indent=2) + "\n", encoding="utf-8")
 
 
+def orphans(then: dict[str, dict]) -> list[str]:
+    """Recorded stages that have no golden run any more (their record must go with them, or the run come back)."""
+    return [stage for stage in then if stage not in CASES]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--record", action="store_true", help="write the values of the stages named (default all)")
-    parser.add_argument("stages", nargs="*", help="stages to record (default: every stage)")
+    parser.add_argument("stages", nargs="*", help="stages to record (default: every stage with a golden run)")
     args = parser.parse_args(argv)
-    with tempfile.TemporaryDirectory(prefix="golden-") as root:
-        now = run_all(Path(root))
-    unknown = set(args.stages) - set(now)
+    unknown = set(args.stages) - set(CASES)
     if unknown:
-        parser.error(f"unknown stages {sorted(unknown)} (allowed: {', '.join(now)})")
-    if args.record:
-        record(now, args.stages or list(now))
-        print(f"recorded {', '.join(args.stages or now)} in {VALUES} ({cpu_kind()} for {', '.join(CPU_DEPENDENT)})")
-        return 0
-    then = recorded()
-    failures = [p for s in now if (p := problem(s, now, then)) is not None]
-    print("\n".join(failures) or "every stage's numbers agree with the record")
+        parser.error(f"stages without a golden run: {sorted(unknown)} (with one: {', '.join(CASES)})")
+    with tempfile.TemporaryDirectory(prefix="golden-") as root:
+        now = GoldenRuns(Path(root))
+        if args.record:
+            chosen = args.stages or list(now)
+            record({stage: now[stage] for stage in chosen}, chosen)
+            print(f"recorded {', '.join(chosen)} in {VALUES} ({cpu_kind()} for {', '.join(CPU_DEPENDENT)})")
+            return 0
+        then = recorded()
+        failures = [f"stage {s} is recorded but has no golden run: restore it, or remove its record from "
+                    f"{RECORDS.name} and its values" for s in orphans(then)]
+        notes = []
+        for stage in args.stages or declared_stages():
+            missing = unrecorded_stage(stage, then) or unrecorded_cpu(stage, then)
+            if missing:
+                notes.append(missing)
+            elif (found := problem(stage, now, then)) is not None:
+                failures.append(found)
+            elif added := additions(now[stage], recorded_values(stage, then[stage])):
+                notes.append(unrecorded_note(stage, added))
+    print("\n".join([*failures, *notes]) or "every stage's numbers agree with the record")
     return 1 if failures else 0
 
 

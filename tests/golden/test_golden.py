@@ -4,45 +4,84 @@ A change of a stage's numbers without a bump of its ``NUMERICS.version`` fails h
 column and the size of the change; a refactor that keeps the numbers passes, and keeps every cache key
 (``tests/stages/test_keys.py``). The numbers of a CPU's vector kernels (AVX2 or AVX-512) are the same numbers
 within ``golden_runs.TOLERANCE``: CI runs this file on both paths (``tests/cpu_paths.py``).
+
+The stages are read from the stage records. A declared stage without a golden run, or a golden run without a
+record, is skipped with the line that says how to add or record it; values a golden run holds that are not
+recorded (a new metric's columns and rows) fail nothing and are reported as an :class:`UnrecordedGolden`
+warning naming the command that records them; a recorded value that is gone or changed fails.
 """
 
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 import pandas as pd
 import pytest
 from golden_runs import (
+    CASES,
     CPU_DEPENDENT,
+    RECORD,
     TOLERANCE,
     Golden,
+    GoldenRuns,
+    additions,
     artefact_values,
     cpu_kind,
+    declared_stages,
     difference,
     disagreement,
     load_values,
+    orphans,
     problem,
     recorded,
-    run_all,
+    recorded_values,
     save_values,
     unrecorded_cpu,
+    unrecorded_note,
+    unrecorded_stage,
 )
 
-STAGES = ("rwg", "metrics", "diagnostics", "primitives", "sac", "occupancy", "learning_path", "verdict")
+STAGES = declared_stages()
+"""Every stage of the chain, read from the stage records."""
+
+
+class UnrecordedGolden(UserWarning):
+    """A golden run holds values that are not recorded: they are not compared until they are recorded."""
 
 
 @pytest.fixture(scope="module")
 def now(tmp_path_factory):
-    return run_all(tmp_path_factory.mktemp("golden"))
+    """Every golden run, each computed when a test first reads it (one stage's test runs what it reads only)."""
+    return GoldenRuns(tmp_path_factory.mktemp("golden"))
+
+
+def compare(stage: str, now, then: dict, values: dict | None = None) -> None:
+    """Skip a stage that cannot be compared (no golden run, no record, no record for this CPU kind), fail one
+    whose recorded values moved, and warn of the values its run holds that are not recorded. ``values``: the
+    recorded values per stage (read from ``values/`` when None)."""
+    missing = unrecorded_stage(stage, then) or unrecorded_cpu(stage, then)
+    if missing:
+        pytest.skip(missing)
+    message = problem(stage, now, then, values)
+    assert message is None, message
+    added = additions(now[stage], values[stage] if values is not None else recorded_values(stage, then[stage]))
+    if added:
+        warnings.warn(unrecorded_note(stage, added), UnrecordedGolden, stacklevel=2)
 
 
 @pytest.mark.parametrize("stage", STAGES)
 def test_a_stages_numbers_are_those_recorded_at_its_version(now, stage):
-    assert set(now) == set(STAGES) == set(recorded()), "every stage has one golden run, recorded"
-    unrecorded = unrecorded_cpu(stage, recorded())
-    if unrecorded:
-        pytest.skip(unrecorded)
-    message = problem(stage, now, recorded())
-    assert message is None, message
+    compare(stage, now, recorded())
+
+
+def test_every_golden_run_is_a_declared_stage_and_every_record_has_its_run():
+    assert set(CASES) <= set(STAGES), "a golden run of a stage no record declares"
+    assert not orphans(recorded()), "a recorded stage without a golden run: restore it or remove its record"
+    # the stages recorded per CPU kind: SAC and the stages whose golden runs read its actors, not the verdict's
+    # (its golden run judges the metrics and diagnostics only)
+    assert CPU_DEPENDENT[0] == "sac" and {"occupancy", "learning_path"} <= set(CPU_DEPENDENT)
+    assert not {"rwg", "metrics", "verdict"} & set(CPU_DEPENDENT)
 
 
 def _artefact(directory, frame: pd.DataFrame, **parquet):
@@ -124,3 +163,76 @@ def test_the_verdict_of_a_comparison_names_the_cause(now):
     assert set(now["sac"].entry(elsewhere["sac"])["cpu_kinds"]) == {kind, "AVX512 SomeVendor"}
     bumped_sac = Golden("sac", now["sac"].version + 1, now["sac"].inputs, now["sac"].values)
     assert bumped_sac.entry(elsewhere["sac"])["cpu_kinds"] == [kind]
+
+
+def _tidy(directory, metrics: list[str], values: list[float]):
+    """An artefact of a wide table (one column per metric) and a tidy one (one row per metric and task)."""
+    directory.mkdir()
+    pd.DataFrame({m: [v] for m, v in zip(metrics, values, strict=True)}).to_parquet(
+        directory / "metrics.parquet", index=False)
+    pd.DataFrame({"metric": [m for m in metrics for _ in (0, 1)], "task": ["a", "b"] * len(metrics),
+                  "value": [v + t for v in values for t in (0.0, 1.0)]}).to_parquet(directory / "verdict.parquet",
+                                                                                    index=False)
+    return artefact_values(directory)
+
+
+@pytest.fixture
+def recorded_metrics(tmp_path):
+    """A synthetic record of the metrics stage (two metrics) and the record's entry."""
+    values = {"metrics": {"case": _tidy(tmp_path / "recorded", ["pic", "poic"], [0.5, 0.25])}}
+    entry = Golden("metrics", 3, {"rwg": 1}).entry()
+    return values, {"metrics": entry}
+
+
+def _now(tmp_path, name, metrics, values) -> dict[str, Golden]:
+    """The golden runs now: the metrics stage's run with ``metrics`` at ``values``."""
+    return {"metrics": Golden("metrics", 3, {"rwg": 1}, {"case": _tidy(tmp_path / name, metrics, values)})}
+
+
+def test_a_new_metrics_columns_and_rows_are_reported_with_the_record_command_and_fail_nothing(tmp_path,
+                                                                                            recorded_metrics):
+    values, then = recorded_metrics
+    now = _now(tmp_path, "new metric", ["pic", "poic", "best"], [0.5, 0.25, 7.0])
+    assert difference(now["metrics"].values["case"], values["metrics"]["case"]) is None
+    assert additions(now["metrics"], values["metrics"]) == [
+        "case › verdict.parquet › rows of metric best", "case › metrics.parquet › best"]
+    with pytest.warns(UnrecordedGolden, match=r"stage metrics's golden run holds values that are not recorded "
+                      r"\(case › verdict.parquet › rows of metric best, case › metrics.parquet › best\): they are "
+                      r"not compared until you record them with `PYTHONPATH=src python tests/golden/golden_runs.py "
+                      r"--record metrics`"):
+        compare("metrics", now, then, values)
+    # a new case is reported the same way
+    with_case = {"metrics": Golden("metrics", 3, {"rwg": 1}, {**now["metrics"].values, "other": {}})}
+    assert additions(with_case["metrics"], values["metrics"])[0] == "case other"
+
+
+def test_a_recorded_column_or_row_that_changes_or_is_gone_fails(tmp_path, recorded_metrics):
+    values, then = recorded_metrics
+    changed = _now(tmp_path, "changed", ["pic", "poic", "best"], [0.5, 0.25 * (1 + 1e-6), 7.0])
+    with pytest.raises(AssertionError, match=r"numbers changed without a version bump \(case case, "
+                                             r"metrics.parquet › poic: 1 of 1 values differ"):
+        compare("metrics", changed, then, values)
+    gone = _now(tmp_path, "gone", ["pic", "best"], [0.5, 7.0])
+    with pytest.raises(AssertionError, match=r"recorded files or columns are gone \(recorded only: "
+                                             r"metrics.parquet › poic\)"):
+        compare("metrics", gone, then, values)
+    # a recorded metric's tidy rows: one of them gone is a change of shape, not a new metric
+    rows = {n: (v[:3] if n.startswith("verdict") else v) for n, v in values["metrics"]["case"].items()}
+    short = {"metrics": Golden("metrics", 3, {"rwg": 1}, {"case": rows})}
+    with pytest.raises(AssertionError, match=r"verdict.parquet › metric: shape \(3,\)"):
+        compare("metrics", short, then, values)
+    lost = {"metrics": Golden("metrics", 3, {"rwg": 1}, {})}
+    with pytest.raises(AssertionError, match=r"its recorded cases \['case'\] are gone"):
+        compare("metrics", lost, then, values)
+
+
+def test_a_stage_without_a_golden_run_or_a_record_is_skipped_with_what_to_do(recorded_metrics):
+    values, then = recorded_metrics
+    with pytest.raises(pytest.skip.Exception, match=r"stage unheard_of has no golden run: declare one with "
+                       r"@golden\('unheard_of'\) in tests/golden/golden_runs.py and record it with "
+                       r"`PYTHONPATH=src python tests/golden/golden_runs.py --record unheard_of`"):
+        compare("unheard_of", {}, then, values)
+    with pytest.raises(pytest.skip.Exception, match=r"stage verdict has no recorded golden run: record it with "
+                       r"`PYTHONPATH=src python tests/golden/golden_runs.py --record verdict`"):
+        compare("verdict", {}, then, values)
+    assert RECORD.endswith("--record") and orphans({"unheard_of": {}}) == ["unheard_of"]

@@ -1,4 +1,4 @@
-"""Off the paper's scale the report says first when a primary metric measures its estimator (issue: CartPole-v1
+"""Off the paper's scale the report says first when a primary metric measures its estimator (e.g. CartPole-v1
 against Pendulum-v1 at N = 64, M = 8 with the published B = 10⁵), and says how far from the paper's scale it is."""
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The stages' records are what the command line, the plan, the chain and the verdict read (issue 32)."""
+"""The stages' records are what the command line, the plan, the chain and the verdict read, so that a stage is
+declared once and nothing keeps a second list of stages."""
 
 from __future__ import annotations
 

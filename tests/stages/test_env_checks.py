@@ -1,6 +1,6 @@
 """A researcher's env that breaks what a cached return matrix relies on is refused in one line, exit 2,
 with nothing left under the cache: NaN rewards, a reset that ignores its seed, observations of the wrong
-shape (issue 29, item 5), rewards that are not one number, steps that draw random numbers outside the env's
+shape, rewards that are not one number, steps that draw random numbers outside the env's
 seeded generator. An env that raises ends in one line too, naming where, with its traceback in the run log and the
 chunks of the policies done kept. A well-behaved env of the same package still runs, and so do the built-in envs."""
 

@@ -18,8 +18,10 @@ import pytest
 
 import taskcomplexity
 from taskcomplexity.stages import keys
+from taskcomplexity.study.chain import CHAIN
 
-STAGES = ("rwg", "metrics", "diagnostics", "primitives", "occupancy", "learning_path", "sac", "verdict")
+STAGES = tuple(stage.name for stage in CHAIN)
+"""Every stage, read from the stage records (the verdict last)."""
 
 # Prints {stage: key} for fixed settings: the real keys of the RWG, SAC and metrics stages of a task, and
 # every stage's key of a fixed payload. Run in a subprocess on a copy of the sources.
@@ -60,8 +62,9 @@ def _edit(path: Path, old: str, new: str) -> None:
 
 
 def test_a_refactor_outside_the_numbers_and_logging_in_them_change_no_key(tmp_path):
-    """Issue 32's and 31's test: move a function between modules outside every stage's numerics, rename a
-    helper and add log lines inside SAC's and RWG's declared modules; every key, SAC's included, stays."""
+    """A key holds the version of a stage's numbers, not its code: move a function between modules outside every
+    stage's numerics, rename a helper and add log lines inside SAC's and RWG's declared modules; every key, SAC's
+    included, stays, so a refactor never throws away hours of SAC curves."""
     package = Path(taskcomplexity.__file__).parent
     copy = tmp_path / "src" / "taskcomplexity"
     shutil.copytree(package, copy, ignore=shutil.ignore_patterns("__pycache__"))

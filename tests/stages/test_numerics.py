@@ -150,3 +150,23 @@ def test_every_numba_kernel_and_metric_estimator_is_declared_by_a_stage():
     assert not kernels - declared, f"numba kernels no stage declares: {sorted(kernels - declared)}"
     estimators = {f"metrics.{p.stem}" for p in (root / "metrics").glob("[!_]*.py")}
     assert not estimators - declared, f"metric modules no stage declares: {sorted(estimators - declared)}"
+
+
+def test_the_metrics_estimators_are_read_from_the_registry():
+    """The metrics stage declares the module of every registry metric's function and the estimator modules they
+    import (``ESTIMATORS``), so a metric in a module of its own needs no second list."""
+    from taskcomplexity.metrics import policy_tables
+    from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Metric
+    from taskcomplexity.stages.metrics_stage import ESTIMATORS, estimator_modules
+
+    assert estimator_modules(DEFAULT_REGISTRY) == ESTIMATORS == tuple(sorted(ESTIMATORS))
+    functions = {f.__module__ for m in DEFAULT_REGISTRY for f in (m.compute, m.draws) if f is not None}
+    assert {name.removeprefix(f"{PACKAGE}.") for name in functions} <= set(ESTIMATORS)
+    # the Sample the functions read and the estimators it imports; not the private input checks
+    assert {"metrics.sample", "metrics.evaluate", "metrics.pic", "metrics.poic", "metrics.histogram",
+            "metrics.log_mean_exp", "metrics.knn"} <= set(ESTIMATORS)
+    assert not [m for m in ESTIMATORS if m.rpartition(".")[2].startswith("_")]
+    # a metric whose function lives in a module of its own brings that module, and what it imports
+    own = Metric("toy", "toy", "toy", "", True, "x", "metrics", compute=policy_tables.policy_sample_tables)
+    assert "metrics.policy_tables" not in ESTIMATORS
+    assert set(estimator_modules(DEFAULT_REGISTRY.with_metrics(own))) == {*ESTIMATORS, "metrics.policy_tables"}

@@ -1,4 +1,5 @@
-"""The RWG stage: seeding, chunking, sharding, the cache and the entry points (issues 3 and 7)."""
+"""The RWG stage: seeding, chunking, sharding, the cache and the entry points. A return matrix is the same
+however it is computed (in chunks, in shards, resumed), so that every stage downstream can trust its key."""
 
 from __future__ import annotations
 

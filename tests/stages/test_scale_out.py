@@ -1,4 +1,5 @@
-"""Scale-out and robustness (issue 7): launchers, concurrency, corruption, bad input."""
+"""Scale-out and robustness: launchers, concurrency, corruption, bad input. Jobs split over processes or machines
+must leave the artefacts one run would, and a damaged or foreign artefact is never served."""
 
 from __future__ import annotations
 

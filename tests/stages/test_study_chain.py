@@ -13,7 +13,9 @@ from omegaconf import open_dict
 
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.metrics import DEFAULT_REGISTRY
-from taskcomplexity.study.chain import study_artefacts
+from taskcomplexity.stages.declared import judged_stages
+from taskcomplexity.stages.sac_stage import STAGE as SAC
+from taskcomplexity.study.chain import CHAIN, study_artefacts
 from taskcomplexity.study.plan import read_plan, study_from
 from taskcomplexity.study.run import run_study
 
@@ -70,14 +72,26 @@ def test_a_second_run_only_hits_the_cache(smoke, caplog):
     assert "cache hit: verdict" in caplog.text and re.search(r"verdict +cache hit: ", caplog.text)
 
 
+def judged_without_sac() -> set[str]:
+    """The judged stages a study computes with SAC off: those that read no SAC output, at any depth (the stage
+    records' inputs)."""
+    records = {stage.name: stage for stage in CHAIN}
+
+    def reads_sac(name: str) -> bool:
+        return name == SAC or any(reads_sac(source) for source in records[name].inputs)
+
+    return {name for name in judged_stages() if not reads_sac(name)}
+
+
 def test_the_verdict_entry_point_writes_a_row_for_every_metric_and_relation(smoke):
     cfg, index, _ = smoke
     artefact = study_artefacts(read_plan(cfg)).verdict
     verdict = pd.read_parquet(artefact.file("verdict.parquet"))
     study = study_from(cfg)
-    # SAC off: no trained actor; the movement-primitive family needs none
-    judged = [m.name for m in DEFAULT_REGISTRY if m.stage in ("metrics", "diagnostics", "primitives")]
-    assert len(verdict) == len(judged) * len(study.relations) == 100
+    # SAC off: no trained actor, so the stages that read SAC's output have no values; the others judge every relation
+    judged = [m.name for m in DEFAULT_REGISTRY if m.stage in judged_without_sac()]
+    assert {"metrics", "diagnostics", "primitives"} <= judged_without_sac()
+    assert len(verdict) == len(judged) * len(study.relations)
     assert set(zip(verdict["metric"], verdict["easier"], verdict["harder"], strict=True)) == {
         (m, r.easier, r.harder) for m in judged for r in study.relations}
     # the report read the same artefact: its tidy verdict is the artefact's

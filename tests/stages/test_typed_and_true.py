@@ -1,4 +1,4 @@
-"""Nothing typed is ignored and every message is true (issue 29, item 7): a study's own N, M against an
+"""Nothing typed is ignored and every message is true: a study's own N, M against an
 explicit ``rwg.policies``/``rwg.episodes``; a SAC refusal that leaves nothing in the cache; a full disk
 named by its path; the occupancy stage's reason for a task it leaves out."""
 

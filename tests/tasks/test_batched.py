@@ -1,4 +1,5 @@
-"""The batched backend is step-for-step the PyBullet reference (environments.md, issue 4)."""
+"""The batched backend is step-for-step the PyBullet reference (environments.md): RWG and SAC run on it by default,
+so its episodes must be the reference's."""
 
 from __future__ import annotations
 

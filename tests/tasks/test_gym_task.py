@@ -33,7 +33,7 @@ def test_a_gym_task_reads_its_spaces_and_time_limit_from_the_registered_env(env_
     task = GymTask(env_id).validate()
     assert isinstance(task, Task)
     assert (task.observation_size, task.action_size, task.max_steps) == CLASSIC[env_id]
-    assert task.task_id == env_id and task.backends == ("kernel", "gym")  # classic-control kernels (issue 14)
+    assert task.task_id == env_id and task.backends == ("kernel", "gym")  # numba kernels first (tasks/classic/)
     assert GymTask(env_id, max_steps=CLASSIC[env_id][2]).identity() == task.identity()  # null = the env's own
     assert GymTask(env_id, max_steps=7).identity() != task.identity()
 

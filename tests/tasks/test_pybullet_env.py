@@ -11,7 +11,8 @@ import pytest
 import taskcomplexity  # noqa: F401 - registers the ids
 from taskcomplexity.tasks.pybullet_env import ReachingEnv
 from taskcomplexity.tasks.registration import gym_ids
-from taskcomplexity.tasks.spec import preset_tasks
+from taskcomplexity.tasks.rewards import reward_kind
+from taskcomplexity.tasks.spec import REWARDS, arm_presets, preset_tasks
 
 ONE_LINK = [t for t in preset_tasks() if not t[0].startswith("two_link")]
 TWO_LINK = [t for t in preset_tasks() if t[0].startswith("two_link")]
@@ -133,8 +134,11 @@ def test_every_arm_preset_file_has_its_gym_ids():
 
     arms = sorted(path.stem for path in (CONF_DIR / "arm").glob("*.yaml"))
     assert sorted({arm for arm, _ in preset_tasks()}) == arms
-    assert len(preset_tasks()) == 7  # 3 arms × {dense, sparse} + the obstacle arm × {dense}
-    assert ("two_link_obstacle", "sparse") not in preset_tasks()
+    # every reward kind for an arm without an obstacle, the dense one only for an arm with one
+    obstacle = {arm for arm, spec in arm_presets().items() if spec.obstacle is not None}
+    assert set(preset_tasks()) == {(arm, kind) for arm in arms for kind in REWARDS
+                                   if arm not in obstacle or reward_kind(kind).obstacle}
+    assert {"two_link_obstacle"} <= obstacle and ("two_link_obstacle", "sparse") not in preset_tasks()
     for arm, reward in preset_tasks():
         assert gym_ids()[(arm, reward)] in gymnasium.registry
 

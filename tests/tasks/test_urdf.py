@@ -11,7 +11,7 @@ from pybullet_utils.bullet_client import BulletClient
 
 from taskcomplexity.tasks.dynamics import ArmDynamics
 from taskcomplexity.tasks.spec import LinkSpec, arm_presets
-from taskcomplexity.tasks.urdf import arm_urdf, read_arm_urdf, urdf_path
+from taskcomplexity.tasks.urdf import PACKAGED, arm_urdf, read_arm_urdf, urdf_path
 
 
 @pytest.fixture(scope="module")
@@ -21,7 +21,7 @@ def bullet():
     client.disconnect()
 
 
-@pytest.mark.parametrize("name", ["one_link_1m0", "one_link_1m65", "two_link"])
+@pytest.mark.parametrize("name", sorted(PACKAGED))
 def test_packaged_urdf_is_what_the_spec_writes(name):
     packaged = resources.files("taskcomplexity.tasks") / "urdf" / f"{name}.urdf"
     assert packaged.read_text() == arm_urdf(arm_presets()[name])
@@ -44,7 +44,7 @@ def test_pybullet_keeps_urdf_masses_and_centres_of_mass(bullet, name, masses, co
         assert info[3][0] == pytest.approx(com, abs=1e-12)
 
 
-@pytest.mark.parametrize("name", ["one_link_1m0", "one_link_1m65", "two_link"])
+@pytest.mark.parametrize("name", sorted(arm_presets()))
 def test_our_inertia_derivation_equals_pybullets(bullet, name):
     # PyBullet recomputes the inertia from the collision box (with a compound margin when offset).
     body = bullet.loadURDF(str(urdf_path(arm_presets()[name])), useFixedBase=True)

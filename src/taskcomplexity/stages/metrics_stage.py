@@ -16,11 +16,13 @@ metric recomputes the artefact instead of serving one without it.
 
 from __future__ import annotations
 
+import ast
 import dataclasses
 import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numba
@@ -36,7 +38,7 @@ from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.metrics.temperature import POICSearch
 from taskcomplexity.stages import rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
-from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.keys import PACKAGE, Numerics, stage_key
 from taskcomplexity.stages.resources import refuse_beyond_memory
 from taskcomplexity.stages.rwg_stage import load_returns
 from taskcomplexity.stages.stage import Judged, Stage, StudyWork
@@ -45,12 +47,39 @@ from taskcomplexity.stages.stage_log import each_task
 log = logging.getLogger(__name__)
 
 STAGE = "metrics"
-ESTIMATORS = (
-    "metrics.registry", "metrics.sample", "metrics.evaluate", "metrics.histogram", "metrics.resampled_histograms",
-    "metrics.pic", "metrics.poic", "metrics.temperature", "metrics.log_mean_exp", "metrics.bootstrap",
-    "metrics.batches", "metrics.statistics", "metrics.shuffle", "metrics.diagnostics", "metrics.knn",
-)
-"""The estimators of the registry's metrics on a return matrix, their bootstrap and their policy batches."""
+
+
+def estimator_modules(registry: Registry) -> tuple[str, ...]:
+    """The modules of ``taskcomplexity.metrics`` that compute ``registry``'s metrics (dotted, without the package
+    prefix, sorted): the modules of every metric's functions (``compute``, ``draws``, its details'), the modules the
+    package re-exports (the :class:`~taskcomplexity.metrics.sample.Sample` whose shared estimates those functions
+    read, the evaluation over batches and bootstrap resamples, the tables the stages read through the package),
+    and every module they import at any depth. Private modules (``_validation``: input checks) compute no number."""
+    directory = Path(est.__file__).parent
+    functions = [f for m in registry for f in (m.compute, m.draws, *(d.compute for d in m.details)) if f is not None]
+    todo = [est.__name__, *(getattr(getattr(f, "func", f), "__module__", "") for f in functions)]
+    seen: set[str] = set()
+    while todo:
+        name = todo.pop()
+        module = name.removeprefix(f"{est.__name__}.") if name != est.__name__ else "__init__"
+        path = directory / f"{module}.py"
+        if name in seen or module == name or "." in module or not path.is_file():
+            continue
+        seen.add(name)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                todo += [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level <= 1:  # absolute, or relative within the package
+                base = ".".join(filter(None, (est.__name__ if node.level else "", node.module)))
+                todo += [base, *(f"{base}.{alias.name}" for alias in node.names)]
+    return tuple(sorted(n.removeprefix(f"{PACKAGE}.") for n in seen
+                        if n != est.__name__ and not n.rpartition(".")[2].startswith("_")))
+
+
+ESTIMATORS = estimator_modules(DEFAULT_REGISTRY)
+"""The estimators of the registry's metrics on a return matrix, their bootstrap and their policy batches: derived
+from :data:`~taskcomplexity.metrics.registry.DEFAULT_REGISTRY` (:func:`estimator_modules`), so a metric in a
+module of its own is declared with its registry entry."""
 NUMERICS = Numerics(version=3, modules=(*ESTIMATORS, "stages.metrics_stage"))
 FILES = ("metrics.parquet", "policies.parquet", "bootstrap.parquet", "batches.parquet")
 AUTO = "auto"
