@@ -21,7 +21,8 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev]'
 	@touch $(STAMP)
 
-install: $(STAMP) ## create .venv and install the package with its pinned dependencies
+install: $(STAMP) ## create .venv, install the package with its pinned dependencies and compile its numba kernels
+	$(PY) -m taskcomplexity.commands.compilation
 
 run: $(STAMP) ## the main job: the seven tasks at the published scale (RWG, metrics, diagnostics, verdict, report)
 	$(PY) pipelines/study.py experiment=published
@@ -78,13 +79,13 @@ $(DOCS_STAMP): $(STAMP) pyproject.toml
 	@touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP) ## build the documentation site into site/ with --strict
-	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir site
+	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict --site-dir site
 
 docs-serve: $(DOCS_STAMP) ## serve the documentation at http://127.0.0.1:8000 while you edit it
-	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs serve --dev-addr 127.0.0.1:8000
+	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs serve --dev-addr 127.0.0.1:8000
 
 bench: $(STAMP) ## benchmarks: figures and ratios measured side by side
-	$(PY) bench/run.py
+	$(PY) bench/run.py $(ARGS)
 
 fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/explanation/fidelity.md (ARGS=--scan: + the torque scan)
 	$(PY) bench/fidelity.py $(ARGS)

@@ -17,9 +17,11 @@ import time
 import numpy as np
 from scipy import stats
 
-from taskcomplexity.metrics.batches import batch_estimates, welch_test
+from taskcomplexity.metrics.batches import welch_test
+from taskcomplexity.metrics.evaluate import batch_estimates
 from taskcomplexity.metrics.pic import pic
 from taskcomplexity.metrics.poic import poic
+from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, run_rwg
 from taskcomplexity.tasks.spec import make_task
@@ -59,7 +61,9 @@ def main() -> None:
                                                                                model.returns.ravel()).pvalue),
         ("collision fraction", collided(exact).mean(), collided(model).mean(), None),
     ]
-    batches = {name: batch_estimates(c.returns) for name, c in (("exact", exact), ("model", model), ("plain", plain))}
+    chosen = [DEFAULT_REGISTRY["pic"], DEFAULT_REGISTRY["poic"]]
+    batches = {name: batch_estimates(c.returns, chosen)
+               for name, c in (("exact", exact), ("model", model), ("plain", plain))}
     for metric, estimate in (("PIC", lambda r: pic(r).pic), ("POIC", lambda r: poic(r).poic)):
         column = metric.lower()
         p = welch_test(batches["exact"][column], batches["model"][column]).pvalue

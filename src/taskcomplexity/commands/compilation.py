@@ -1,17 +1,26 @@
-"""Say when numba compiles the kernels, and how long it took.
+"""Say when numba compiles a set of kernels and how long it took, and compile them all ahead (``make install``).
 
-Every kernel of the package is compiled with ``cache=True``: the first run after an install (or after
-an upgrade that changed a kernel's source) compiles them and writes machine code to disk, later runs
-load it in milliseconds. Without a word, that first compilation looks like a progress bar stuck at 0 %
-for half a minute. :func:`announce_compilation` listens to numba's ``numba:compile`` event, which numba
-fires only on a cache miss (a real compilation, never a load from disk), and prints one line when the
-first compilation of the run starts; the total goes to the run log when the run ends (the console's last
-line stays the report's path).
+Every kernel of the package is compiled with ``cache=True``: numba compiles a kernel at its first call with
+new argument types and writes the machine code to disk (``NUMBA_CACHE_DIR``, else the ``__pycache__``
+folders beside the sources); later processes load it in milliseconds until the kernel's source file changes.
+How long a compilation takes depends on the machine and on what else runs on it, so nothing here promises a
+duration: each kernel set (:data:`KERNEL_SETS`) says when it starts compiling and, once done, how long it took.
+
+:class:`CompilationLog` listens to numba's ``numba:compile`` event, which numba fires only on a cache miss (a
+real compilation, never a load from disk). A set's compilations that follow one another are one burst: one
+line when it starts, one when it ends (when another set starts compiling, or when no compilation has started
+for :data:`SETTLE_SECONDS`). The run log gets the totals per set when the run ends.
+
+``python -m taskcomplexity.commands.compilation`` (run by ``make install``) compiles every kernel set ahead:
+it runs the first calls of the stages that ``make run``, ``make quick`` and ``make classic`` run, at a tiny
+size into a temporary cache (:func:`warm_up`), so that their first run loads the kernels instead.
 """
 
 from __future__ import annotations
 
 import logging
+import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -23,9 +32,32 @@ from taskcomplexity.report.format import plural
 
 log = logging.getLogger(__name__)
 
-FIRST_RUN_SECONDS = 45
-"""Seconds of compilation of a first ``experiment=smoke`` run on a 2-core machine; every kernel a study uses,
-compiled once per install (measured from a fresh clone: 19 kernels in 42 s; docs/tutorials/reproduce-the-paper.md)."""
+KERNEL_SETS: tuple[tuple[str, str], ...] = (
+    ("taskcomplexity.tasks.classic", "classic-control"),
+    ("taskcomplexity.tasks", "reaching-arm"),
+    ("taskcomplexity.metrics", "estimator"),
+    ("taskcomplexity.policies", "movement-primitive"),
+)
+"""(module prefix, set name), the most specific prefix first: a kernel belongs to the set of the first prefix
+its module starts with; a kernel of any other module (a user's task) to a set named after its top package."""
+
+SETTLE_SECONDS = 3.0
+"""A burst of compilations ends when none has started for this long (s): the kernels of one stage compile one
+after another, with the stage's own work between them."""
+
+WARM_UP_RUNS: tuple[tuple[tuple[str, ...], bool], ...] = (
+    (("experiment=published", "primitives.policies=10", "primitives.episodes=4", "primitives.bins=100"), True),
+    (("experiment=quick",), False),
+    (("study=classic_control", "study.policies=10", "study.episodes=4"), False),
+)
+"""The studies :func:`warm_up` runs at a tiny size (overrides, whether to run the whole chain or only RWG):
+``make run``'s whole chain (float32 forward passes, the obstacle's contact model, the estimators, the movement
+primitives), then the RWG of ``make quick`` (float64, PyBullet hand-overs: also what the single-stage commands
+and ``experiment=smoke`` run) and of ``make classic`` (the classic-control kernels); their other stages call the
+kernels the first chain compiled, with the same argument types."""
+
+TINY = ("rwg.policies=10", "rwg.episodes=4", "metrics.bins=1000", "metrics.resamples=20", "sac.enabled=false")
+"""The overrides that shrink a study to seconds of work (``experiment=smoke``'s sizes, SAC off)."""
 
 
 def cache_location() -> str:
@@ -37,61 +69,198 @@ def cache_location() -> str:
     return f"the __pycache__ folders of {Path(__file__).resolve().parents[1]}"
 
 
+def kernel_set(module: str, sets: tuple[tuple[str, str], ...] = KERNEL_SETS) -> str:
+    """The name of the kernel set of a kernel defined in ``module`` (see :data:`KERNEL_SETS`)."""
+    for prefix, name in sets:
+        if module == prefix or module.startswith(prefix + "."):
+            return name
+    return module.split(".")[0]
+
+
 class CompilationLog(event.Listener):
-    """numba's ``numba:compile`` events of one run: announced at the first, summed to the last.
+    """numba's ``numba:compile`` events of one run, announced and timed per kernel set.
+
+    Parameters
+    ----------
+    write : callable
+        Prints one line (the announcements).
+    sets : tuple of (str, str), optional
+        (module prefix, set name) pairs, :data:`KERNEL_SETS` by default.
+    settle : float, optional
+        Seconds without a compilation that end a burst, :data:`SETTLE_SECONDS` by default.
 
     Attributes
     ----------
     kernels : int
-        Functions compiled (outermost compilations; the ones they pull in are counted in their time).
+        Compilations (outermost ones: the kernels a kernel pulls in count in its time).
     seconds : float
         Wall time spent compiling, s.
+    per_set : dict of str to [int, float]
+        Compilations and seconds of each set.
     """
 
-    def __init__(self, write: Callable[[str], None]):
+    def __init__(self, write: Callable[[str], None], *, sets: tuple[tuple[str, str], ...] = KERNEL_SETS,
+                 settle: float = SETTLE_SECONDS):
         self._write = write
+        self._sets = sets
+        self._settle = settle
+        self._lock = threading.Lock()
         self._depth = 0
         self._started = 0.0
+        self._open: str | None = None       # the set of the burst under way
+        self._burst = 0.0                   # its seconds so far
+        self._generation = 0                # bumped at every compilation: a timer of an older one does nothing
+        self._timer: threading.Timer | None = None
         self.kernels = 0
         self.seconds = 0.0
+        self.per_set: dict[str, list] = {}
 
     def on_start(self, event) -> None:
-        """A compilation starts (numba calls this; nested ones too)."""
-        if self._depth == 0:
-            if self.kernels == 0:
-                self._write(f"compiling the numba kernels, once per install: about {FIRST_RUN_SECONDS} s in all "
-                            f"on 2 cores (cached in {cache_location()}; later runs load them)")
-            self._started = time.perf_counter()
-        self._depth += 1
+        """A compilation starts (numba calls this, under its compiler lock; nested ones too)."""
+        lines = []
+        with self._lock:
+            if self._depth == 0:
+                self._generation += 1
+                name = kernel_set(event.data["dispatcher"].py_func.__module__, self._sets)
+                if self._open is not None and self._open != name:
+                    lines.append(self._end_burst())
+                if self._open is None:
+                    lines.append(self._announce(name))
+                    self._open = name
+                self._started = time.perf_counter()
+            self._depth += 1
+        for line in lines:
+            self._write(line)
 
     def on_end(self, event) -> None:
         """A compilation ends."""
-        self._depth -= 1
-        if self._depth == 0:
+        with self._lock:
+            self._depth -= 1
+            if self._depth:
+                return
+            seconds = time.perf_counter() - self._started
             self.kernels += 1
-            self.seconds += time.perf_counter() - self._started
+            self.seconds += seconds
+            self._burst += seconds
+            totals = self.per_set.setdefault(self._open, [0, 0.0])
+            totals[0] += 1
+            totals[1] += seconds
+            self._timer = threading.Timer(self._settle, self._settled, args=(self._generation,))
+            self._timer.daemon = True
+            self._timer.start()
+
+    def _announce(self, name: str) -> str:
+        if name in self.per_set:
+            return f"compiling more of the {name} kernels (other argument types) …"
+        where = "" if self.per_set else f" in {cache_location()}"
+        return (f"compiling the {name} kernels: not in numba's cache yet (first use on this machine, or their "
+                f"source changed); numba caches them{where} for later runs …")
+
+    def _end_burst(self) -> str:
+        line = f"compiled the {self._open} kernels in {self._burst:.1f} s"
+        self._open, self._burst = None, 0.0
+        return line
+
+    def _settled(self, generation: int) -> None:
+        with self._lock:
+            if generation != self._generation or self._depth or self._open is None:
+                return
+            line = self._end_burst()
+        self._write(line)
+
+    def close(self) -> None:
+        """End the burst under way, if any (the end of the run)."""
+        with self._lock:
+            self._generation += 1
+            if self._timer is not None:
+                self._timer.cancel()
+            line = self._end_burst() if self._open is not None and not self._depth else None
+        if line:
+            self._write(line)
 
     def summary(self) -> str | None:
         """One line on what was compiled in the run (None if nothing was)."""
         if not self.kernels:
             return None
-        return (f"numba compiled {plural(self.kernels, 'kernel')} in {self.seconds:.0f} s; "
-                "they are cached on disk and load instantly in later runs")
+        sets = ", ".join(f"{name} {n} in {s:.1f} s" for name, (n, s) in self.per_set.items())
+        return (f"numba compiled {plural(self.kernels, 'kernel')} in {self.seconds:.1f} s ({sets}); "
+                f"cached in {cache_location()} for later runs")
 
 
 @contextmanager
-def announce_compilation(write: Callable[[str], None] | None = None) -> Iterator[CompilationLog]:
-    """Within the block, numba's compilations are announced once and summed; the sum goes to the run log.
+def announce_compilation(write: Callable[[str], None] | None = None, *,
+                         sets: tuple[tuple[str, str], ...] = KERNEL_SETS,
+                         settle: float = SETTLE_SECONDS) -> Iterator[CompilationLog]:
+    """Within the block, each kernel set's compilations are announced and timed; the totals go to the run log.
 
-    ``write`` prints the announcement (default: ``tqdm.write``, which keeps open progress bars intact).
+    ``write`` prints a line (default: ``tqdm.write``, which keeps open progress bars intact); ``sets`` and
+    ``settle`` as :class:`CompilationLog` takes them.
     """
     from tqdm.auto import tqdm
 
-    compiled = CompilationLog(write or (lambda line: tqdm.write(line)))
+    compiled = CompilationLog(write or (lambda line: tqdm.write(line)), sets=sets, settle=settle)
     with event.install_listener("numba:compile", compiled):
         try:
             yield compiled
         finally:
+            compiled.close()
             line = compiled.summary()
             if line:
                 log.debug(line)
+
+
+def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
+    """Compile (or load from numba's cache) every kernel the studies of :data:`WARM_UP_RUNS` call.
+
+    Each runs at :data:`TINY` size into a temporary cache (its whole chain: RWG, metrics, diagnostics, the
+    movement primitives, the verdict, no SAC, no report; or only two episodes of two policies per task), so
+    its kernels are called with the argument types a run at any size calls them with. Returns the log of what
+    compiled.
+    """
+    from dataclasses import replace
+
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    from taskcomplexity.cli import CONF_DIR
+    from taskcomplexity.rwg import simulate_chunk
+    from taskcomplexity.study.chain import study_artefacts
+    from taskcomplexity.study.plan import read_plan
+
+    with tempfile.TemporaryDirectory(prefix="taskcomplexity-warm-up-") as outputs, \
+            announce_compilation(write) as compiled:
+        for overrides, chain in WARM_UP_RUNS:
+            GlobalHydra.instance().clear()
+            with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+                cfg = compose("config", overrides=[*overrides, *TINY, f"paths.outputs={outputs}"])
+            plan = read_plan(cfg)
+            if chain:
+                study_artefacts(plan, progress=False, ahead=False)
+                continue
+            for request in plan.requests:
+                simulate_chunk(request.task, request.network, request.prior,
+                               replace(request.settings, policies=2, episodes=2), 0, 2, request.backend)
+        GlobalHydra.instance().clear()
+    return compiled
+
+
+def main() -> None:
+    """``python -m taskcomplexity.commands.compilation``: :func:`warm_up`, then one line on what it did."""
+    import warnings
+
+    logging.basicConfig(level=logging.WARNING)
+    # The classic-control protocol's CartPole-v0 is chosen, not stale (as in the tests' filter, pyproject.toml).
+    warnings.filterwarnings("ignore", message=".*The environment CartPole-v0 is out of date",
+                            category=DeprecationWarning)
+    started = time.perf_counter()
+    compiled = warm_up()
+    seconds = time.perf_counter() - started
+    if compiled.kernels:
+        print(f"numba kernels compiled ahead: {plural(compiled.kernels, 'compilation')} in {compiled.seconds:.0f} s "
+              f"(warm-up {seconds:.0f} s in all); cached in {cache_location()}")
+    else:
+        print(f"numba kernels: every one already in the cache ({cache_location()}; warm-up {seconds:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()
