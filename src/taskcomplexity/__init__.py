@@ -2,6 +2,43 @@
 
 Importing the package registers the reaching task of every arm preset (``conf/arm/``) with each reward
 it allows with gymnasium, e.g. ``gymnasium.make("taskcomplexity/TwoLink-Sparse-v0")``.
+
+Data flows one way: config → task → returns → metrics → verdict → report; SAC's curves join at the verdict.
+
+Modules
+-------
+cli
+    The command line's glue: what is typed, checked before Hydra parses it; exit codes.
+commands
+    The entry points: one Hydra app per stage, plus ``study`` for the whole chain.
+config
+    From Hydra/OmegaConf configuration to the library's plain dataclasses.
+errors
+    Exceptions the library raises; entry points turn them into one readable line and a non-zero exit.
+metrics
+    The estimators on a return matrix (statistics, PIC, POIC, bootstrap, Welch, diagnostics) and their registry.
+policies
+    The random policy families (MLPs and movement primitives) and their weight priors.
+progress
+    Progress bars: one per stage of a study, which the work inside the stage advances.
+report
+    The report of a study, read from artefacts only.
+rl
+    Soft Actor-Critic (+ HER) with TorchRL: the empirical difficulty of a task.
+rwg
+    Random Weight Guessing (Algorithm 1): N random policies × M episodes → the return matrix.
+seeding
+    The random streams that make RWG a pure function of (task, network, prior, N, M, seed).
+stages
+    One declared record per stage, the cache keys and the content-addressed cache.
+study
+    A study run from its configuration: its plan, its chain of stages, then its report.
+study_data
+    A study as data: its tasks, their known relations, orders, reference scores and budgets.
+tasks
+    The Task seam, the reaching arms, classic-control kernels and any gymnasium id.
+verdict
+    The study's known relations × the registry's metrics → outcomes, with the information check.
 """
 
 from taskcomplexity.tasks.registration import gym_ids, register_tasks

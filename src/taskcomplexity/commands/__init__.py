@@ -11,6 +11,25 @@ Importing this package configures the process, before any of its modules loads t
 OpenMP threads that spin-wait after a parallel region would steal the cores from numba's kernels
 (2x slower RWG on 2 cores). The process is the entry point's to configure; ``import taskcomplexity``
 itself sets nothing.
+
+Modules
+-------
+compilation
+    Says when numba compiles a set of kernels and how long it took; compiles them all ahead (``make install``).
+metrics
+    The metrics stage's entry point: every registered metric of a task, its bootstrap and batch estimates.
+rwg
+    The RWG stage's entry point: N random policies × M episodes of one task → ``returns.parquet``.
+sac
+    The SAC stage's entry point: SAC (and SAC + HER) on one task → ``curves.parquet``.
+study
+    The whole chain for a study: RWG → metrics (+ diagnostics) → SAC → verdict → report.
+study_tasks
+    Prints a study's task ids, comma-separated: the values of a sweep over ``sac.entry`` (``make paper-jobs``).
+sweep
+    The Hydra callback that writes a multirun's sweep report.
+verdict
+    The verdict stage's entry point: every registered metric against every known relation of the study.
 """
 
 import os

@@ -6,13 +6,15 @@
     python pipelines/sac.py experiment=smoke reward=sparse sac.her=true
 
 The budget is ``sac.total_steps`` when set; otherwise the ``sac_steps`` of the selected study's entry
-for this task (``study=seven_tasks`` by default: the reference budgets of sac.md). A task with neither fails
-with one line naming ``sac.total_steps``. An interrupted run resumes from its last checkpoint.
+for this task (``study=seven_tasks`` by default: the reference budgets of
+``docs/explanation/sac-protocol.md``). A task with neither fails with one line naming ``sac.total_steps``.
+An interrupted run resumes from its last checkpoint.
 
 ``sac.entry=<study task id>`` trains what the study's chain trains on that task instead: the task composed
-as the study composes it, every variant of sac.md (SAC; + HER on a sparse reaching task) at its budget, into
-the keys the study looks up. A multirun over the ids is ``make paper`` spread over jobs (``make paper-jobs``,
-e.g. on a cluster through ``hydra/launcher=cluster``); ``make paper`` then reads every run from the cache::
+as the study composes it, every variant of ``docs/explanation/sac-protocol.md`` (SAC; + HER on a sparse
+reaching task) at its budget, into the keys the study looks up. A multirun over the ids is ``make paper``
+spread over jobs (``make paper-jobs``, e.g. on a cluster through ``hydra/launcher=cluster``); ``make paper``
+then reads every run from the cache::
 
     python pipelines/sac.py -m experiment=published sac.entry=one_link_1m0-dense,two_link-sparse \
         hydra/launcher=local_submitit

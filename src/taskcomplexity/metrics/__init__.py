@@ -2,22 +2,51 @@
 
 Every function takes ``returns``, a float array of shape (N, M): row n is policy θₙ, column e is
 episode e (N, M >= 2, all finite). Entropies and mutual informations are in nats. The library is
-pure numpy/scipy/scikit-learn and prints nothing.
+pure numpy/scipy/scikit-learn and prints nothing. ``docs/explanation/estimators.md`` states the
+estimators, their formulas and their biases.
 
 Modules
 -------
-statistics   per-policy statistics and the normalised random-sampling score
-histogram    equal-width binning and sparse per-policy histograms
-pic          Policy Information Capacity (histogram estimator) and its reference implementation
-temperature  the deterministic temperature search of POIC
-poic         Policy-Optimal Information Capacity and the MI(λ) curve
-bootstrap    fast bootstrap of PIC and POIC over policies
-batches      Welch's t-tests between tasks
-diagnostics  permutation null, bins and subsample sweeps, Miller–Madow and nearest-neighbour MI
-sample       one return matrix with its estimator settings and shared, lazily computed estimates
-registry     every metric declared once: function, labels, unit, direction, family, stage
-evaluate     the one place a registered metric is evaluated (points, bootstrap, batches, SAC seeds)
-sac          final return, AUC and steps to 90 % of SAC learning curves (inputs of the SAC metrics)
+batches
+    Welch's t-tests between tasks on per-batch estimates (the paper's significance tests).
+bootstrap
+    Fast bootstrap of PIC and POIC over policies.
+diagnostics
+    Permutation null, bins and subsample sweeps, Miller–Madow and nearest-neighbour MI.
+evaluate
+    The one place a registered metric is evaluated (points, bootstrap, batches, SAC seeds).
+histogram
+    Equal-width binning and sparse per-policy histograms.
+knn
+    Nearest-neighbour mutual information between a label and one continuous variable.
+learning_path
+    Learning-path PIC and POIC: information capacity around the points SAC's training passes through.
+log_mean_exp
+    Per-policy log-mean-exp of centred returns (POIC's success probabilities), a numba kernel.
+occupancy
+    Wasserstein-2 distance between random policies' state–action occupancies and a trained policy's.
+pic
+    Policy Information Capacity (histogram estimator) and its reference implementation.
+poic
+    Policy-Optimal Information Capacity and the MI(λ) curve.
+policy_tables
+    The tables of a stage whose metrics are estimated on a sample of policies beyond the return matrix.
+registry
+    Every metric declared once: function, labels, unit, direction, family, stage.
+resampled_histograms
+    Pooled-histogram entropies of many policy resamples at once (the bootstrap PIC's numba kernels).
+sac
+    Final return, AUC and steps to 90 % of SAC learning curves (inputs of the SAC metrics).
+sample
+    One return matrix with its estimator settings and shared, lazily computed estimates.
+shuffle
+    ``Generator.permutation`` of a 1-D array, bit for bit NumPy's, in numba.
+statistics
+    Per-policy statistics and the normalised random-sampling score.
+temperature
+    The deterministic temperature search of POIC.
+_validation
+    Validation of the estimators' public arguments.
 """
 
 from taskcomplexity.metrics.batches import (

@@ -2,8 +2,8 @@
 
 The N policies of a task are split into consecutive batches and every batched metric is estimated
 on each (:func:`taskcomplexity.metrics.evaluate.batch_estimates`); two tasks are compared with
-Welch's unequal-variance t-test on their batch values (``metrics.md`` § Uncertainty and
-significance). The same tests apply to bootstrap draws or to SAC seeds.
+Welch's unequal-variance t-test on their batch values (``docs/explanation/estimators.md``
+§ Significance). The same tests apply to bootstrap draws or to SAC seeds.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Bootstrap of PIC and POIC over policies (``metrics.md`` § Uncertainty and significance).
+"""Bootstrap of PIC and POIC over policies (``docs/explanation/estimators.md`` § Uncertainty).
 
 A resample draws N policies with replacement, each keeping all M episodes, and re-estimates PIC and
 POIC exactly as on the original sample: bin edges and S* come from the resample itself. The

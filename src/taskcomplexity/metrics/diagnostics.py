@@ -1,4 +1,4 @@
-"""Diagnostics of the PIC estimator (``metrics.md`` § Beyond the paper).
+"""Diagnostics of the PIC estimator (``docs/explanation/estimators.md`` § Estimator biases).
 
 The histogram PIC with B = 10⁵ bins is dominated by estimation bias on continuous returns. These
 functions make that visible for a task: a permutation null (true MI = 0), sweeps over the number of

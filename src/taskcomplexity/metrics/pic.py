@@ -1,7 +1,7 @@
 """Policy Information Capacity (PIC) with the published histogram estimator.
 
 PIC = H(R) - H(R|Θ), the mutual information between the policy index and the episode return
-(``metrics.md`` § PIC). Entropies are plug-in estimates on B equal-width bins spanning all N·M
+(``docs/explanation/estimators.md`` § PIC). Entropies are plug-in estimates on B equal-width bins spanning all N·M
 returns; every policy is histogrammed on the same edges.
 """
 

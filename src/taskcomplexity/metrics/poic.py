@@ -3,7 +3,7 @@
 For a temperature λ, policy n "succeeds" with probability
 ``pₙ(λ) = (1/M) Σ_e exp((S[n, e] - S*)/λ)``; POIC is the largest mutual information
 ``MI(λ) = h(p̄) - (1/N) Σₙ h(pₙ)`` between the policy index and this binary optimality variable over
-λ in a range (``metrics.md`` § POIC). Entropies are in nats.
+λ in a range (``docs/explanation/estimators.md`` § POIC). Entropies are in nats.
 
 Computation
 -----------

@@ -341,4 +341,5 @@ DEFAULT_REGISTRY = Registry((
     Metric("sac_her_auc", "SAC+HER AUC", "HER AUC", "normalised return", True, "SAC", "sac",
            compute=_sac("sac+her", "auc_normalised"), why=_SAC_WHY),
 ))
-"""The metrics of ``metrics.md``: random-policy metrics, other estimators of PIC's quantity, and SAC's order."""
+"""The metrics of ``docs/explanation/estimators.md``: random-policy metrics, other estimators of PIC's quantity,
+and SAC's order."""

@@ -1,4 +1,6 @@
-"""The empirical difficulty of each task, derived from SAC learning curves (``sac.md`` § Protocol).
+"""The empirical difficulty of each task, derived from SAC learning curves.
+
+``docs/explanation/sac-protocol.md`` § What the curves give the verdict states them.
 
 These are the inputs of the registry's SAC metrics (stage ``sac``); the verdict stage computes them.
 
@@ -13,7 +15,7 @@ Per run (task, variant, seed):
 - **normalisation**: ``(r - low) / (high - low)`` with the task's bounds. With the random-policy
   bounds of the task (``rwg_bounds``: the worst policy mean r_min and the best episode return
   r_max), ``high`` is ``max(r_max, best SAC evaluation of the task)``, as for score_R in
-  ``metrics.md``, so 0 is the worst random policy's mean and 1 the best return anyone reached;
+  ``docs/explanation/estimators.md``, so 0 is the worst random policy's mean and 1 the best return anyone reached;
   normalised values are comparable across tasks with different reward scales. Without them the
   bounds are the task's own curve minimum and maximum (over every variant and seed), which only
   describes the curve's shape;

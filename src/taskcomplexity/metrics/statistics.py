@@ -1,6 +1,6 @@
 """Per-policy statistics of a return matrix and the normalised random-sampling score.
 
-Follows Oller et al. (2020) as specified in ``metrics.md`` (§ Per-policy statistics).
+Follows Oller et al. (2020) as ``docs/explanation/estimators.md`` states them (§ Per-policy statistics).
 """
 
 from __future__ import annotations

@@ -4,6 +4,30 @@ Any :class:`~taskcomplexity.tasks.base.Task` with a Box action space: the reachi
 on their goal-conditioned view) and any gymnasium id. ``train_sac(task, settings, seed=...)`` returns
 a tidy learning curve (see :data:`~taskcomplexity.rl.train.CURVE_COLUMNS`); ``train_sac_seeds``
 trains several seeds together. Discrete action spaces are not trained (``sac_skip_reason``).
+``docs/explanation/sac-protocol.md`` states the protocol.
+
+Modules
+-------
+checkpoint
+    Atomic, verified checkpoints of a SAC run: a SHA-256 header, then a ``torch.save`` payload.
+collectors
+    TorchRL's collector, imported with its import-time deprecation warning silenced.
+evaluation
+    Deterministic evaluation of the seeds' policies, every seed's episodes side by side.
+factories
+    The pieces of a SAC run, one ``make_<thing>`` per piece, each from explicit arguments.
+her
+    Hindsight Experience Replay with TorchRL's HER replay buffer.
+layers
+    A linear layer holding one weight matrix per seed, so that several seeds train together.
+objective
+    SAC's objective evaluated directly on the parameters TorchRL's ``SACLoss`` holds.
+settings
+    Every hyper-parameter of the SAC (+HER) stage, as one frozen dataclass.
+snapshots
+    Snapshots of SAC actors along training, as policies of the RWG family.
+train
+    Train SAC (+HER) on a task and return its learning curve.
 """
 
 from taskcomplexity.rl.settings import (

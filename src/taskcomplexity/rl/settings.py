@@ -283,8 +283,9 @@ def has_goal_view(task) -> bool:
 def sac_skip_reason(task) -> str | None:
     """Why SAC does not run on ``task`` (None: it does).
 
-    SAC here is the continuous-action algorithm of sac.md (tanh-Gaussian actor scaled into the Box
-    bounds); a Discrete action space is skipped with the reason ``"discrete actions"``.
+    SAC here is the continuous-action algorithm of ``docs/explanation/sac-protocol.md`` (tanh-Gaussian
+    actor scaled into the Box bounds); a Discrete action space is skipped with the reason
+    ``"discrete actions"``.
     """
     if isinstance(task.action_space, spaces.Discrete):
         return "discrete actions"
@@ -292,7 +293,9 @@ def sac_skip_reason(task) -> str | None:
 
 
 def protocol_variants(task, settings: SACSettings) -> tuple[SACSettings, ...]:
-    """The runs sac.md asks for on ``task``: SAC, plus SAC + HER on a sparse task with a goal view.
+    """The runs the SAC protocol asks for on ``task``: SAC, plus SAC + HER on a sparse task with a goal view.
+
+    ``docs/explanation/sac-protocol.md`` states the protocol.
 
     Returns ``settings`` with ``her=False`` and, for a reaching task with a goal view whose whole
     reward is a function of the goals (:attr:`taskcomplexity.tasks.rewards.RewardKind.goal_reward`:

@@ -2,7 +2,7 @@
 
 The actor's deterministic action is low + (tanh(loc) + 1)·(high − low)/2 with loc the first n_act
 outputs of a ReLU MLP with biases (``factories.make_actor_critic``), which is exactly an RWG policy
-of :class:`~taskcomplexity.policies.NetworkSpec` (hidden, bias=True, relu, tanh output) whose last
+of :class:`~taskcomplexity.policies.mlp.NetworkSpec` (hidden, bias=True, relu, tanh output) whose last
 layer keeps the loc rows only, decoded by :func:`~taskcomplexity.tasks.base.decode_actions`. A
 snapshot can therefore run on every RWG backend, be perturbed like any weight vector, and have its
 occupancy recorded like a random policy's.

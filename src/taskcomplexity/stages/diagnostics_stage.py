@@ -1,4 +1,6 @@
-"""The diagnostics stage: how much of a task's PIC is estimator bias? (``metrics.md`` § Beyond the paper)
+"""The diagnostics stage: how much of a task's PIC is estimator bias?
+
+``docs/explanation/estimators.md`` § Estimator biases states the diagnostics.
 
 An RWG artefact + the metrics estimator settings + :class:`DiagnosticsSettings` → tables under
 ``<cache>/diagnostics/<key>/``:

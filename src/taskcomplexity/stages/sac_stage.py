@@ -225,7 +225,7 @@ def study_sac_curves(
     cache: Cache, tasks: Sequence[tuple[Any, Any]], node: Any, *, force: bool = False, progress: bool = False,
     cached_only: bool = False,
 ) -> pd.DataFrame:
-    """Every variant of sac.md (SAC; + HER on sparse reaching tasks) for every study task, as one tidy table.
+    """Every variant of the SAC protocol (SAC; + HER on sparse reaching tasks) for every study task, as one tidy table.
 
     Parameters
     ----------

@@ -146,11 +146,11 @@ class BatchedReaching:
         Parameters
         ----------
         weights : ndarray (P, S)
-            P policies' packed parameters (:meth:`taskcomplexity.policies.PolicyBatch.packed`);
+            P policies' packed parameters (:meth:`taskcomplexity.policies.mlp.PolicyBatch.packed`);
             environment i follows policy i // (B / P).
         layer_sizes : ndarray (L + 1,) int
         activation, output, bias, input_bias
-            As in :class:`taskcomplexity.policies.NetworkSpec`.
+            As in :class:`taskcomplexity.policies.mlp.NetworkSpec`.
         precision : {'float64', 'float32'}
             The forward pass's arithmetic (:func:`taskcomplexity.tasks.rollout_kernel.rollout`).
         """

@@ -39,6 +39,9 @@ from taskcomplexity.tasks.spec import TaskSpec
 class BatchedReachingVector(gymnasium.vector.VectorEnv):
     """``num_envs`` instances of a contact-free reaching task as one gymnasium vector environment.
 
+    Observations are float64 arrays (B, obs_size) (or a dict of them), rewards float64 (B,), ``terminated`` and
+    ``truncated`` bool (B,); the info dict is empty (the reaching arms report success through the observation).
+
     Parameters
     ----------
     task : TaskSpec
@@ -48,9 +51,6 @@ class BatchedReachingVector(gymnasium.vector.VectorEnv):
     goal_conditioned : bool
         Observations as the goal-conditioned view's dict (``observation``, ``achieved_goal``, ``desired_goal``;
         :mod:`taskcomplexity.tasks.goal_env`) instead of the task observation.
-
-    Observations are float64 arrays (B, obs_size) (or a dict of them), rewards float64 (B,), ``terminated`` and
-    ``truncated`` bool (B,); the info dict is empty (the reaching arms report success through the observation).
     """
 
     metadata = {"autoreset_mode": gymnasium.vector.AutoresetMode.DISABLED}

@@ -71,7 +71,8 @@ class GymTask:
 
     @property
     def backends(self) -> tuple[str, ...]:
-        # issue 14: ids (and constructor arguments) with a classic-control kernel run on it by default
+        # An id (with constructor arguments) that has a classic-control kernel runs on it by default: the
+        # kernel steps every episode of a chunk at once and reproduces gymnasium's episodes exactly.
         from taskcomplexity.tasks.classic import kernel_for
 
         return ("kernel", "gym") if kernel_for(self.env_id, self.kwargs) is not None else ("gym",)

@@ -24,7 +24,7 @@ class ReachingEnv(gym.Env):
     ## Description
     A 1- or 2-link arm on a fixed pin rotates in the horizontal plane. Each episode draws fresh
     joint angles and a fresh target; the agent must bring the end effector within 0.05 m of the
-    target. Mechanics follow ``shared/spec/environments.md`` exactly: each action is applied with
+    target. Mechanics follow ``docs/reference/tasks.md`` exactly: each action is applied with
     ``TORQUE_CONTROL`` and then the world is stepped ``substeps`` (51) times, so the torque acts for
     one physics step (an angular impulse τ·dt) and the arm coasts for the remaining 50 under
     PyBullet's link damping and the URDF joint damping.

@@ -15,10 +15,10 @@ column, where the scalar loop it leaves for a remainder cost up to 40 % more tim
 (``bench/bench_kernel_split.py``); the extra columns hold earlier steps' finite numbers and are computed and
 ignored. The physics of a task without a block does the same (:func:`~taskcomplexity.tasks.step_kernel.step_block`).
 
-It is the same function as :meth:`taskcomplexity.policies.PolicyBatch.act`
+It is the same function as :meth:`taskcomplexity.policies.mlp.PolicyBatch.act`
 up to the summation order of the matrix products (float64 rounding; ``tests/tasks/test_rollout_kernel.py``).
 
-Parameters of P policies are one float64 row each (:meth:`~taskcomplexity.policies.PolicyBatch.packed`):
+Parameters of P policies are one float64 row each (:meth:`~taskcomplexity.policies.mlp.PolicyBatch.packed`):
 per layer the weight as (fan_out, fan_in) row-major, then its bias (fan_out) when the network has
 biases; ``layer_sizes`` holds the first layer's fan_in (observation size, plus 1 with an input bias),
 then every layer's fan_out.
@@ -230,7 +230,7 @@ def rollout(
     output : {'tanh', 'linear'}
         The outputs are the actions (clipped to [−1, 1] by the step).
     bias, input_bias : bool
-        As in :class:`taskcomplexity.policies.NetworkSpec`.
+        As in :class:`taskcomplexity.policies.mlp.NetworkSpec`.
     precision : {'float64', 'float32'}
         The forward pass's arithmetic: the weights, the observations as the network reads them and every
         layer's values in this precision (the actions return to float64; the physics is always float64).

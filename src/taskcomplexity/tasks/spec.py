@@ -3,7 +3,7 @@
 Plain frozen dataclasses, usable without Hydra. The Hydra configs under ``taskcomplexity/conf/arm``
 and ``taskcomplexity/conf/reward`` hold exactly these fields; ``tests/tasks/test_config.py`` keeps the
 YAML files and the presets below equal. All lengths in metres, masses in kilograms, angles in radians, torques in
-N·m, times in seconds (see ``shared/spec/environments.md``).
+N·m, times in seconds (see ``docs/reference/tasks.md``).
 """
 
 from __future__ import annotations
@@ -302,7 +302,7 @@ def _non_negative(key: str, value: float) -> None:
         raise ConfigError(f"{key} must be a finite number >= 0, got {value!r}")
 
 
-# --- presets (the reference tasks of environments.md) -------------------------------------------
+# --- presets (the reference tasks of docs/reference/tasks.md) -------------------------------------------
 
 
 def _preset_node(directory, name: str) -> dict:

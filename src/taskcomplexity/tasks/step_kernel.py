@@ -45,9 +45,10 @@ KERNEL_MODULES = ("step_kernel", "rollout_kernel", "dynamics", "contact", "mecha
 def drop_stale_kernels(directory: Path | None = None) -> bool:
     """Delete numba's on-disk kernels of this package when any of their sources changed.
 
-    numba keys a cached kernel on its own file only: after an edit to :mod:`dynamics` or
-    :mod:`contact` it would go on loading a :func:`_step` compiled from the old code. A digest of all
-    the kernel sources, stamped next to the cache, catches that. Returns whether anything was dropped.
+    numba keys a cached kernel on its own file only: after an edit to :mod:`~taskcomplexity.tasks.dynamics`
+    or :mod:`~taskcomplexity.tasks.contact` it would go on loading a :func:`_step` compiled from the old
+    code. A digest of all the kernel sources, stamped next to the cache, catches that. Returns whether
+    anything was dropped.
     """
     here = Path(__file__).resolve().parent
     directory = directory or (Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else here / "__pycache__")

@@ -1,13 +1,17 @@
 """The verdict: the study's known relations × the registry's metrics → outcomes (a cached stage).
 
+The stage itself (cache key, files) is :mod:`taskcomplexity.stages.verdict_stage`.
+
 Modules
 -------
-judge       every (metric, relation) outcome, per-metric counts, Kendall's τ
-references  reference scores (the study's own, Score(A) and Score(R)) and every metric's correlation with them
-gather      tidy values, samples and shown details of every registered metric from the stages' tables
-information whether each value carries information (above its permutation null, below its ceiling)
-
-The stage itself (cache key, files) is :mod:`taskcomplexity.stages.verdict_stage`.
+gather
+    Tidy values, samples and shown details of every registered metric from the stages' tables.
+information
+    Whether each value carries information (above its permutation null, below its ceiling).
+judge
+    Every (metric, relation) outcome, per-metric counts, Kendall's τ.
+references
+    Reference scores (the study's own, Score(A) and Score(R)) and every metric's correlation with them.
 """
 
 from taskcomplexity.verdict.gather import gather, gather_details, gather_policies

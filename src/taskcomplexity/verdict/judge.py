@@ -1,6 +1,6 @@
 """The verdict: does a complexity metric agree with the tasks' known relative difficulty?
 
-``metrics.md`` (§ The verdict) asks, for every metric and known relation, whether the metric orders
+``docs/explanation/estimators.md`` (§ The verdict) asks, for every metric and known relation, whether the metric orders
 the two tasks as known and whether the difference is significant; per metric, the counts of
 outcomes and Kendall's τ against each known total order (correlations with reference scores:
 :mod:`taskcomplexity.verdict.references`). The relations and orders are study data

@@ -10,6 +10,15 @@ step draws too (``draws_in_step``: the noisy CartPole) keeps each episode's gene
 draws and continues it in the step.
 
 Equivalence with gymnasium: ``tests/tasks/test_classic_kernels.py``.
+
+Modules
+-------
+kernels
+    Batched numba steps of gymnasium's classic-control environments.
+noisy_cartpole
+    CartPole with noise in its initial state and its dynamics (``taskcomplexity/NoisyCartPole-v0``).
+resets
+    ``gymnasium.utils.seeding.np_random(seed)`` for many seeds at once: its state and its draws.
 """
 
 from __future__ import annotations

@@ -96,7 +96,7 @@ class NoisyCartPoleEnv(CartPoleEnv):
 
     ## Version History
 
-    * v0: CartPole-v0 (gymnasium 1.2.3) with ``reset_noise`` and ``dynamics_noise`` (issue 14).
+    * v0: CartPole-v0 (gymnasium 1.2.3) with ``reset_noise`` and ``dynamics_noise``.
     """
 
     def __init__(
