@@ -226,7 +226,8 @@ def test_verdicts_by_relation_show_which_survive_a_change_of_estimator():
     wide = by_relation(table, ["pic", "pic_knn", "pic_miller_madow"])
     assert list(wide.columns) == ["easier", "harder", "kind", "pic", "pic_knn", "survives"]
     assert len(wide) == 10
-    changed = wide[~wide["survives"]]
+    changed = wide[wide["survives"] == "no"]
+    assert set(wide["survives"]) == {"yes", "no"}
     # Only the relations with two_link-sparse as the harder task flip under pic_knn.
     assert set(changed["harder"]) == {"two_link-sparse"} and len(changed) == 3
     assert (changed["pic"] == "agree").all() and (changed["pic_knn"] == "contradict").all()
@@ -240,3 +241,18 @@ def test_pairwise_welch_gives_every_ordered_pair_of_tasks_per_metric():
     assert set(tests["metric"]) == {"pic"} and len(tests) == 6
     row = tests[(tests["task_a"] == "c") & (tests["task_b"] == "a")].iloc[0]
     assert row["statistic"] > 0 and row["significant"]
+
+
+@pytest.mark.parametrize(("outcomes", "expected"), [
+    (["agree", "agree", "agree"], "yes"),
+    (["agree", "contradict", "agree"], "no"),
+    (["agree", "not significant"], "no"),
+    # An uninformative estimator measures its bias: left out, the other two agree.
+    (["uninformative", "agree", "agree"], "yes"),
+    (["uninformative", "agree", ""], "one informative estimator"),
+    (["not significant", "not significant", "uninformative"], "no significant verdict"),
+    (["uninformative", "uninformative"], "no significant verdict"),
+])
+def test_survival_compares_only_the_informative_estimators(outcomes, expected):
+    from taskcomplexity.verdict.judge import survival
+    assert survival(outcomes) == expected

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from taskcomplexity.report.format import and_list, naming
 from taskcomplexity.report.headline import measure_sentence, primary_sentence, survival_sentence
 from taskcomplexity.report.verdict_tables import RELATION
+from taskcomplexity.verdict.judge import survival as survival_of
 
 OUTCOMES = ("agree", "contradict", "not significant", "undefined", "uninformative")
 COUNTS = {"agreements": "agree", "contradictions": "contradict", "not_significant": "not significant",
@@ -109,7 +110,7 @@ def survival(rows: list[list[str]], estimators=("PIC", "PIC (MM)", "kNN")) -> pd
     table = pd.DataFrame(rows, columns=list(estimators))
     table.insert(0, "Kind", "k")
     table.insert(0, RELATION, [f"r{i}" for i in range(len(rows))])
-    table["Survives"] = ["yes" if len(set(r)) <= 1 else "no" for r in rows]
+    table["Survives"] = [survival_of(r) for r in rows]
     return table
 
 
@@ -270,3 +271,56 @@ def test_the_primary_sentence_states_the_tables_counts(drawn):
         else:
             o = next(o for o, n in counts.items() if n)
             assert tail == (f"; the other verdict is {o})." if rest == 1 else f"; the other {rest} verdicts are {o}).")
+
+
+SURVIVAL_OUTCOMES = ("agree", "contradict", "not significant", "uninformative")
+ESTIMATORS = ("PIC", "PIC (MM)", "kNN", "E4", "E5")
+
+
+def counted(phrase: str) -> int:
+    """The count in of_total's words: "2 of the 3 relations", "all 3 relations", "both relations", "the one …"."""
+    found = re.match(r"(\d+) of the|all (\d+)|(both)|the one", phrase)
+    return int(found.group(1) or found.group(2) or 0) or (2 if found.group(3) else 1)
+
+
+@st.composite
+def survival_tables(draw):
+    estimators = draw(st.integers(2, 5))
+    relations = draw(st.integers(1, 12))
+    rows = draw(st.lists(st.lists(st.sampled_from(SURVIVAL_OUTCOMES), min_size=estimators, max_size=estimators),
+                         min_size=relations, max_size=relations))
+    return rows
+
+
+@settings(max_examples=500, deadline=None)
+@given(survival_tables())
+def test_the_survival_sentence_counts_what_the_table_holds(rows):
+    text = survival_sentence("I(Θ; R)", survival(rows, ESTIMATORS[:len(rows[0])]))
+    # Counted independently of the composer: a relation is judged when an informative estimator is significant;
+    # it survives when at least two estimators are informative and all of those reach one outcome.
+    informative = [[o for o in row if o != "uninformative"] for row in rows]
+    judged = [any(o in ("agree", "contradict") for o in row) for row in informative]
+    survives = [j and len(row) >= 2 and len(set(row)) == 1 for j, row in zip(judged, informative, strict=True)]
+    if not any(judged):
+        assert "surviv" not in text and text.startswith("No informative estimator gives a significant verdict")
+        return
+    if len(rows) == 1:
+        alone = len(informative[0]) < 2
+        assert ("no other informative estimator" in text) == alone
+        if not alone:
+            assert ("does not survive" in text) == (not survives[0])
+        return
+    assert re.match(r"[^;]* relations? ha(?:s|ve) a significant verdict on I\(Θ; R\); of those, ", text)
+    assert counted(text.split(" ha", 1)[0].lower()) == sum(judged)
+    kept = re.search(r"of those, (none|\d+|it|both|all) surviv", text).group(1)
+    expected = {"none": 0, "it": 1, "both": 2, "all": sum(judged)}.get(kept)
+    assert (int(kept) if expected is None else expected) == sum(survives)
+    # Exactly the estimators uninformative somewhere are named as left out, each on as many relations as it has.
+    left = text.split("left out where uninformative: ")[1] if "left out where" in text else ""
+    left = left[:left.rfind(")")]
+    named = {}
+    for item in re.split(r", | and ", left) if left else []:
+        estimator, phrase = item.split(" on ", 1)
+        named[estimator] = counted(phrase)
+    blank = {e: sum(row[i] == "uninformative" for row in rows) for i, e in enumerate(ESTIMATORS[:len(rows[0])])}
+    assert named == {e: n for e, n in blank.items() if n}

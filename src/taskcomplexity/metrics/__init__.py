@@ -63,6 +63,7 @@ from taskcomplexity.metrics.bootstrap import (
 )
 from taskcomplexity.metrics.diagnostics import (
     KNNMIResult,
+    KNNOptions,
     permutation_null,
     pic_bins_sweep,
     pic_knn,
@@ -107,6 +108,7 @@ __all__ = [
     "bootstrap_multiplicities",
     "format_welch_matrix",
     "mutual_information_curve",
+    "KNNOptions",
     "permutation_null",
     "pic",
     "pic_bins_sweep",

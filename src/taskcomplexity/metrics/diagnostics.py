@@ -49,12 +49,39 @@ class KNNMIResult:
     n_neighbors: int
 
 
+@dataclass(frozen=True)
+class KNNOptions:
+    """The options of :func:`pic_knn` an estimate was made with, so that its null uses the same ones.
+
+    Attributes
+    ----------
+    seed : int
+        Seed of the subsample and of scikit-learn's tie-breaking noise.
+    n_neighbors, max_samples, episodes_per_policy : int
+        As in :func:`pic_knn`.
+    """
+
+    seed: int
+    n_neighbors: int = 3
+    max_samples: int = 50_000
+    episodes_per_policy: int = 50
+
+    def estimate(self, returns: np.ndarray) -> KNNMIResult:
+        """:func:`pic_knn` of ``returns`` (shape (N, M)) with these options (episodes per policy at most M)."""
+        return pic_knn(returns, seed=self.seed, n_neighbors=self.n_neighbors, max_samples=self.max_samples,
+                       episodes_per_policy=min(self.episodes_per_policy, returns.shape[1]))
+
+
 def permutation_null(returns: object, *, seed: int, repeats: int = 10, bins: int = DEFAULT_BINS,
-                     search: POICSearch = DEFAULT_SEARCH, optimal_return: float | None = None) -> pd.DataFrame:
-    """PIC and POIC of the returns permuted across policies, where the true MI is 0.
+                     search: POICSearch = DEFAULT_SEARCH, optimal_return: float | None = None,
+                     knn: KNNOptions | None = None) -> pd.DataFrame:
+    """Every estimator of I(Θ; R) and POIC on the returns permuted across policies, where the true MI is 0.
 
     Each repeat shuffles all N·M returns uniformly and reshapes them to (N, M), which keeps the
-    pooled returns (and so the bin edges and S*) and destroys any dependence on the policy.
+    pooled returns (and so the bin edges and S*) and destroys any dependence on the policy. Each
+    permutation is estimated by histogram PIC, Miller–Madow PIC (from the same histogram), POIC and,
+    with ``knn``, the nearest-neighbour MI (with the same subsample positions and noise as the observed
+    estimate), so that every estimator is compared with its own null on the same permutations.
 
     Parameters
     ----------
@@ -68,11 +95,14 @@ def permutation_null(returns: object, *, seed: int, repeats: int = 10, bins: int
         Histogram bins of PIC.
     search, optimal_return
         The POIC temperature search and known optimal return (see :func:`~taskcomplexity.metrics.poic.poic`).
+    knn : KNNOptions, optional
+        The options of the observed nearest-neighbour estimate; None leaves the ``pic_knn`` column out.
 
     Returns
     -------
     pandas.DataFrame, one row per repeat
-        ``repeat``, ``pic``, ``h_r``, ``h_r_given_theta``, ``poic``, ``temperature`` (nats).
+        ``repeat``, ``pic``, ``h_r``, ``h_r_given_theta``, ``poic``, ``temperature``,
+        ``pic_miller_madow`` and (with ``knn``) ``pic_knn`` (nats; the temperature in return units).
         Summarise with :func:`summarise_null`.
     """
     returns = validate_returns(returns)
@@ -84,18 +114,20 @@ def permutation_null(returns: object, *, seed: int, repeats: int = 10, bins: int
     rows = []
     # The next permutation and its sorted rows are made in the background while this one is estimated.
     for repeat, (shuffled, log_means) in enumerate(shuffled_ahead(rng, returns, repeats, PolicyLogMeans)):
-        estimate = pic(shuffled, bins=bins)
+        estimate, corrected = _plugin_and_miller_madow(shuffled, bins)
         found = poic(shuffled, search=search, optimal_return=optimal_return, log_means=log_means)
-        rows.append(
-            {
-                "repeat": repeat,
-                "pic": estimate.pic,
-                "h_r": estimate.h_r,
-                "h_r_given_theta": estimate.h_r_given_theta,
-                "poic": found.poic,
-                "temperature": found.temperature,
-            }
-        )
+        row = {
+            "repeat": repeat,
+            "pic": estimate.pic,
+            "h_r": estimate.h_r,
+            "h_r_given_theta": estimate.h_r_given_theta,
+            "poic": found.poic,
+            "temperature": found.temperature,
+            "pic_miller_madow": corrected.pic,
+        }
+        if knn is not None:
+            row["pic_knn"] = knn.estimate(shuffled).mi
+        rows.append(row)
     _remember_null_pic(key, np.array([row["pic"] for row in rows]))
     return pd.DataFrame(rows)
 

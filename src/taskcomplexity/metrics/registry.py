@@ -76,9 +76,10 @@ class Information:
     Attributes
     ----------
     null : str or None
-        The permutation null of the diagnostics stage that applies to the value: ``"pic"`` or
-        ``"poic"`` (the returns shuffled across policies, where the true information is 0). The value
-        carries information when it exceeds that null significantly.
+        The permutation null of the diagnostics stage that applies to the value: a column of its
+        ``null.parquet`` (``"pic"``, ``"poic"``, ``"pic_miller_madow"``, ``"pic_knn"``: the estimator on the
+        returns shuffled across policies, where the true information is 0). The value carries information
+        when it exceeds that null significantly.
     ceiling : bool
         The value is an information about the policy index, at most ln N (N: the policies of the sample
         it was estimated on); near that ceiling it cannot rank tasks.
@@ -237,6 +238,12 @@ class Registry:
         """A new registry with ``metrics`` appended (this one is unchanged)."""
         return Registry((*self.metrics, *metrics))
 
+    def nulls(self) -> tuple[str, ...]:
+        """The permutation nulls its metrics' information checks read (columns of the diagnostics'
+        ``null.parquet``), each once, in registry order."""
+        named = (m.information.null for m in self.metrics if m.information is not None and m.information.null)
+        return tuple(dict.fromkeys(named))
+
     def signature(self, stage: str | None = None) -> list[dict]:
         """Identity of the metrics of ``stage`` (all when None), for cache keys."""
         chosen = self.metrics if stage is None else self.of_stage(stage)
@@ -295,9 +302,10 @@ DEFAULT_REGISTRY = Registry((
                "follow; a task where every policy earns the same return gives no direction to improve"),
     Metric("pic_miller_madow", "PIC (Miller–Madow)", "PIC MM", "nats", True, "estimator", "diagnostics",
            compute=lambda s: s.pic_miller_madow.pic, batched=True, quantity=_I, why=_OTHER_ESTIMATOR,
-           information=Information(ceiling=True)),
+           information=Information(null="pic_miller_madow", ceiling=True)),
     Metric("pic_knn", "PIC (k-NN)", "PIC kNN", "nats", True, "estimator", "diagnostics",
            compute=lambda s: s.knn.mi, batched=True, quantity=_I, why=_OTHER_ESTIMATOR,
+           information=Information(null="pic_knn"),
            details=(Detail("knn_policies", "k-NN policies", "policies", lambda s: s.knn.policies, shown=False),
                     Detail("knn_episodes", "k-NN episodes", "episodes", lambda s: s.knn.episodes, shown=False))),
     Metric("pic_minus_null", "PIC − null", "PIC − null", "nats", True, "estimator", "diagnostics",

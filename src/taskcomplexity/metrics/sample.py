@@ -21,7 +21,7 @@ import pandas as pd
 
 from taskcomplexity.metrics._validation import validate_returns
 from taskcomplexity.metrics.bootstrap import bootstrap
-from taskcomplexity.metrics.diagnostics import KNNMIResult, null_pic, pic_knn, pic_miller_madow
+from taskcomplexity.metrics.diagnostics import KNNMIResult, KNNOptions, null_pic, pic_miller_madow
 from taskcomplexity.metrics.pic import DEFAULT_BINS, PICResult, pic
 from taskcomplexity.metrics.poic import POICResult, PolicyLogMeans, poic
 from taskcomplexity.metrics.statistics import ScoreSummary, random_sampling_score
@@ -118,12 +118,16 @@ class Sample:
     def pic_miller_madow(self) -> PICResult:
         return pic_miller_madow(self.returns, bins=self.estimation.bins)
 
+    @property
+    def knn_options(self) -> KNNOptions:
+        """The nearest-neighbour MI's options for this sample (its permutation null uses the same)."""
+        e = self.estimation
+        return KNNOptions(seed=self.seed("knn"), n_neighbors=e.knn_neighbors, max_samples=e.knn_max_samples,
+                          episodes_per_policy=e.knn_episodes_per_policy)
+
     @cached_property
     def knn(self) -> KNNMIResult:
-        e = self.estimation
-        return pic_knn(self.returns, seed=self.seed("knn"), n_neighbors=e.knn_neighbors,
-                       max_samples=e.knn_max_samples,
-                       episodes_per_policy=min(e.knn_episodes_per_policy, self.returns.shape[1]))
+        return self.knn_options.estimate(self.returns)
 
     @cached_property
     def null_pic(self) -> np.ndarray:

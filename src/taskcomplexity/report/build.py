@@ -28,36 +28,54 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report import sections
 from taskcomplexity.report.beyond import beyond_section
 from taskcomplexity.report.data import load_study_data
-from taskcomplexity.report.format import joined, plural
+from taskcomplexity.report.format import and_list, joined, of_total, plural
 from taskcomplexity.report.headline import headline
 from taskcomplexity.report.html import Document, write_html
 from taskcomplexity.report.markdown import render_markdown
 from taskcomplexity.report.methods import methods
 from taskcomplexity.report.writer import Writer
-from taskcomplexity.study_data import PAPER_SCALE, Study
+from taskcomplexity.study_data import Study
 
 
 def scale_banner(data) -> str | None:
-    """A warning when the metrics are not at the scale of the study's published table, or, for a study without
-    one, below the scale of the paper's Table 1 (None otherwise, and for ablations)."""
+    """The line under the title on the study's scale (None for ablations, and at the published scale).
+
+    A study with a ``published:`` block is compared with it: a warning when its N, M or B differ. A study
+    without one is compared with nothing published: one plain sentence gives its N, M and B and what the
+    information check found of the primary metrics at that scale.
+    """
     if data.study.kind == "variants":
         return None
     published = data.study.published
     bins = int(data.results[data.tasks[0]].metrics.manifest.get("config", {}).get("bins", 0))
     scales = {(int(p), int(e)) for p, e in zip(data.metrics["policies"], data.metrics["episodes"], strict=True)}
-    if published is not None and all(not published.differs(n, m, bins) for n, m in scales):
-        return None
-    reference = published or PAPER_SCALE
-    if published is None and all(n >= reference.policies and m >= reference.episodes for n, m in scales):
-        return None
     here = "; ".join(f"N = {n:,}, M = {m:,}" for n, m in sorted(scales)) + f", B = {bins:,}"
-    where = "not at" if published is not None else "below"
-    advice = ("experiment=published (make run) computes them at that scale" if published is not None else
-              "the verdict's information check says, per task and relation, whether a value carries information "
-              "or only its estimator's bias")
-    return (f"These numbers are at {here}, {where} the scale of {reference.source} (N = {reference.policies:,}, "
-            f"M = {reference.episodes:,}, B = {reference.bins:,}). PIC's histogram estimator depends on N, M and B, "
-            f"so its values here are not comparable with that table; {advice}.")
+    if published is None:
+        return (f"This study has no published table to compare with (its study file has no published: block); "
+                f"its metrics are at {here}." + information_found(data))
+    if all(not published.differs(n, m, bins) for n, m in scales):
+        return None
+    return (f"These numbers are at {here}, not at the scale of {published.source} (N = {published.policies:,}, "
+            f"M = {published.episodes:,}, B = {published.bins:,}). PIC's histogram estimator depends on N, M and B, "
+            "so its values here are not comparable with that table; experiment=published (make run) computes them "
+            "at that scale.")
+
+
+def information_found(data) -> str:
+    """" At this scale, the information check finds PIC informative on 1 of the 2 tasks and POIC on both."
+    (empty without an information check of a primary metric)."""
+    checked = data.verdict.get("information")
+    if checked is None or checked.empty:
+        return ""
+    parts = []
+    for metric in (m for m in data.registry if m.primary):
+        rows = checked[checked["metric"] == metric.name]
+        if len(rows):
+            found = of_total(int(rows["informative"].astype(bool).sum()), len(rows), "task")
+            parts.append(f"{metric.label} {'informative on' if parts == [] else 'on'} {found}")
+    if not parts:
+        return ""
+    return " At this scale, the information check finds " + and_list(parts) + "."
 
 
 def build_report(

@@ -487,11 +487,13 @@ def bins_sweep_figure(
 
 
 def null_figure(
-    nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.DataFrame], styles: Mapping[str, TaskStyle]
+    nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.DataFrame], styles: Mapping[str, TaskStyle],
+    labels: Mapping[str, str] | None = None,
 ) -> Figure:
-    """Figure (e2): observed PIC and POIC of each task against their permutation null.
+    """Figure (e2): each estimator's observed value on each task against its permutation null.
 
-    The observed value is an open ring, so that a null lying on top of it stays visible.
+    One panel per estimator the diagnostics stage ran a null of (two per row); the observed value is an
+    open ring, so that a null lying on top of it stays visible.
 
     Parameters
     ----------
@@ -501,12 +503,17 @@ def null_figure(
         ``null_summary.parquet`` (``metric``, ``observed``, ``null_mean``, ``null_sd``).
     styles : mapping of task id to TaskStyle
         Names and colours, in study order.
+    labels : mapping of estimator name to its display name, optional
+        Axis labels (the name itself when absent).
     """
+    labels = labels or {}
     tasks = [t for t in styles if t in nulls]
     metrics = list(summaries[tasks[0]]["metric"])  # the estimators the diagnostics stage ran a null of
+    columns = min(2, len(metrics))
+    rows = -(-len(metrics) // columns)
     with paper_style():
-        figure, axes = _figure(1, len(metrics), 0.32 * len(tasks) + 0.9, sharey=True)
-        for ax, metric in zip(axes[0], metrics, strict=True):
+        figure, axes = _figure(rows, columns, rows * (0.32 * len(tasks) + 1.0), sharey=True)
+        for ax, metric in zip(axes.flat, metrics, strict=False):
             for position, task in enumerate(tasks):
                 draws = nulls[task][metric].to_numpy()
                 row = summaries[task].set_index("metric").loc[metric]
@@ -517,10 +524,13 @@ def null_figure(
                             label="null mean ± sd" if position == 0 else None, zorder=3)
                 ax.scatter(row["observed"], position, s=60, facecolors="none", edgecolors=styles[task].colour,
                            linewidths=1.6, label="observed" if position == 0 else None, zorder=4)
-            ax.set_xlabel(f"{metric.upper()} (nats)")
+            ax.set_xlabel(f"{labels.get(metric, metric)} (nats)")
             ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
             ax.grid(axis="x", linewidth=0.3, alpha=0.5)
-        axes[0, 0].set_yticks(range(len(tasks)), [styles[t].name for t in tasks])
+        for ax in axes.flat[len(metrics):]:
+            ax.set_visible(False)
+        for ax in axes[:, 0]:
+            ax.set_yticks(range(len(tasks)), [styles[t].name for t in tasks])
         axes[0, 0].invert_yaxis()  # the axes share y: invert once, first task on top
         axes[0, -1].legend(frameon=False, loc="best")
     return figure

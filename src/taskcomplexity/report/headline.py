@@ -10,6 +10,7 @@ import pandas as pd
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue, significant_int
 from taskcomplexity.report.verdict_tables import survival_tables
+from taskcomplexity.verdict.judge import SURVIVAL
 from taskcomplexity.verdict.references import reference_label
 
 
@@ -246,9 +247,10 @@ def measure_sentence(summary: pd.DataFrame, verdict: pd.DataFrame, *, label: Cal
 def survival_sentence(quantity: str, table: pd.DataFrame) -> str:
     """Whether the significant verdicts on a quantity survive a change of estimator.
 
-    Only relations with a significant verdict (agree, contradict) from an informative estimator count; an
-    uninformative estimator is left out of the comparison (and named), so a relation survives when every
-    informative estimator, at least two of them, reaches the same outcome.
+    The table's ``Survives`` column (:func:`~taskcomplexity.verdict.judge.survival`) decides: only relations
+    with a significant verdict from an informative estimator count, an uninformative estimator is left out
+    of the comparison (and named), so a relation survives when every informative estimator, at least two of
+    them, reaches the same outcome.
 
     Parameters
     ----------
@@ -259,13 +261,11 @@ def survival_sentence(quantity: str, table: pd.DataFrame) -> str:
         column of outcomes per estimator.
     """
     estimators = list(table.columns[2:-1])
-    outcomes = table[estimators].astype(str)
-    informative = (outcomes != "uninformative") & (outcomes != "")
-    judged = (outcomes.isin(SIGNIFICANT) & informative).any(axis=1)
-    several = informative.sum(axis=1) >= 2
-    same = outcomes.where(informative).nunique(axis=1, dropna=True) <= 1
-    total, significant = len(table), int(judged.sum())
-    kept, alone = int((judged & several & same).sum()), int((judged & ~several).sum())
+    outcomes, survives = table[estimators].astype(str), table["Survives"]
+    total = len(table)
+    yes, no, one, _ = SURVIVAL
+    significant = int(survives.isin((yes, no, one)).sum())
+    kept, alone = int((survives == yes).sum()), int((survives == one).sum())
     blank = {e: int(n) for e, n in (outcomes == "uninformative").sum().items() if n}
     if blank:
         left = (and_list(blank) if total == 1

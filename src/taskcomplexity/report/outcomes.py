@@ -54,8 +54,50 @@ def mark(outcome: str) -> str:
     return display(outcome).mark
 
 
-def legend(outcomes: Iterable[str]) -> str:
-    """``✓ …; ✗ …`` for the outcomes given, in :data:`OUTCOME_DISPLAY` order (unknown ones last)."""
+UNINFORMATIVE_REASONS = {
+    "null": "a value equals its permutation null",
+    "ceiling": "a value sits at its ceiling ln N",
+    "nulls": "most of the difference is the difference of the two tasks' permutation nulls",
+}
+"""Why a verdict is uninformative (:func:`uninformative_reasons`) → the words of its legend and tooltip."""
+
+
+def uninformative_reasons(row, information: dict[tuple[str, str], str]) -> tuple[str, ...]:
+    """The reasons (keys of :data:`UNINFORMATIVE_REASONS`) one verdict row is uninformative, () otherwise.
+
+    Parameters
+    ----------
+    row : mapping
+        A row of the verdict artefact (``metric``, ``easier``, ``harder``, ``outcome``,
+        ``informative_easier``, ``informative_harder``).
+    information : dict of (metric, task) to str
+        The information check's ``reason`` of each checked value ("" when informative).
+    """
+    if row["outcome"] != "uninformative":
+        return ()
+    found = []
+    for side in ("easier", "harder"):
+        if not bool(row[f"informative_{side}"]):
+            reason = information.get((row["metric"], row[side]), "")
+            found += [key for key, cause in (("null", "permutation null"), ("ceiling", "ceiling")) if cause in reason]
+    if bool(row["informative_easier"]) and bool(row["informative_harder"]):
+        found.append("nulls")
+    return tuple(key for key in UNINFORMATIVE_REASONS if key in found)
+
+
+def legend(outcomes: Iterable[str], reasons: Iterable[str] = ()) -> str:
+    """``✓ …; ✗ …`` for the outcomes given, in :data:`OUTCOME_DISPLAY` order (unknown ones last).
+
+    ``reasons`` (keys of :data:`UNINFORMATIVE_REASONS`) are the reasons behind the ○ cells shown: the legend
+    of ○ lists only those (all of them when none is given).
+    """
     present = list(dict.fromkeys(outcomes))
     ordered = [o for o in OUTCOME_DISPLAY if o in present] + [o for o in present if o not in OUTCOME_DISPLAY]
-    return "; ".join(f"{mark(o)} {display(o).legend}" for o in ordered)
+    reasons = set(reasons)
+
+    def words(outcome: str) -> str:
+        if outcome != "uninformative" or not reasons:
+            return display(outcome).legend
+        return "uninformative: " + " or ".join(w for k, w in UNINFORMATIVE_REASONS.items() if k in reasons)
+
+    return "; ".join(f"{mark(o)} {words(o)}" for o in ordered)

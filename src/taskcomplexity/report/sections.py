@@ -25,6 +25,7 @@ from taskcomplexity.report.verdict_tables import (
     correlation_display,
     headline_metrics,
     outcome_words,
+    reasons_shown,
     reference_table,
     summary_display,
     survival_tables,
@@ -105,7 +106,8 @@ def headline_matrix(writer: Writer, data: StudyData, *, alpha: float) -> TableBl
     outcomes = data.verdict["verdict"].loc[data.verdict["verdict"]["metric"].isin(chosen), "outcome"]
     return writer.table(
         matrix, "verdict_headline", "Verdict by known relation.",
-        f"{shown}{appendix}. {outcome_legend(outcomes)}. Hover a cell for the values and p-value "
+        f"{shown}{appendix}. {outcome_legend(outcomes, reasons_shown(data, chosen))}. Hover a cell for the values, "
+        "the p-value and the reason of ○ "
         f"(Welch's test, significant at p < {alpha:g}).", tips,
         files=(outcome_words(matrix), "Outcome of the primary metrics, each family's most agreeing metric and the "
                                       "most contradicting one on every known relation (significant at p < "
@@ -285,9 +287,10 @@ def diagnostics_section(writer: Writer, data: StudyData) -> Section:
             "bin occupancy rather than information.",
         ),
         writer.figure(
-            [(fig.null_figure({t: d[t]["null"] for t in tasks}, {t: d[t]["null_summary"] for t in tasks}, styles),
+            [(fig.null_figure({t: d[t]["null"] for t in tasks}, {t: d[t]["null_summary"] for t in tasks}, styles,
+                              {m.name: m.label for m in data.registry}),
               "diagnostics_null")],
-            "Observed PIC and POIC against their permutation null.",
+            "Every estimator of I(Θ; R), and POIC, against its permutation null.",
             "Grey ticks: the estimator on returns shuffled across policies (true MI = 0); grey square and bar: "
             "their mean ± sd; coloured ring: the observed value. Only the distance between the ring and the null "
             "is evidence of information about the policy.",
@@ -338,7 +341,8 @@ def appendix_section(writer: Writer, data: StudyData) -> Section:
     matrix, tips = verdict_matrix(data)
     whole = writer.table(
         matrix, "verdict_matrix", "Verdict by known relation, every metric.",
-        f"{outcome_legend(verdict['outcome'])}. Hover a cell for the values and p-value; the table below "
+        f"{outcome_legend(verdict['outcome'], reasons_shown(data, verdict['metric']))}. Hover a cell for the values, "
+        "the p-value and the reason of ○; the table below "
         "lists them.", tips,
         files=(outcome_words(matrix), "Outcome of every metric on every known relation (Welch's t-test)."))
     full = writer.table(verdict_display(data), "verdict", "The full verdict.",

@@ -9,7 +9,7 @@ import pandas as pd
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import MISSING, num, percent, policies_needed, pvalue
 from taskcomplexity.report.labels import kind_label
-from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, mark
+from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, UNINFORMATIVE_REASONS, mark, uninformative_reasons
 from taskcomplexity.verdict import by_relation
 from taskcomplexity.verdict.references import reference_label
 
@@ -28,8 +28,10 @@ def headline_metrics(data: StudyData) -> tuple[list[str], dict[str, str], str | 
 
     "Most agreeing" is the most agreements net of contradictions, then the most agreements, then registry
     order; "contradicts most often" the most contradictions, then the fewest net agreements, then registry
-    order (the orders the headline's words use). A metric whose every outcome is undefined is not a
-    candidate. The full matrix (every metric) is the appendix's.
+    order (the orders the headline's words use). As in the headline, only metrics on one scale across tasks
+    are candidates (not a raw return in each task's own units), a family's representative agrees with at
+    least one relation, and a metric whose every outcome is undefined is not a candidate. The full matrix
+    (every metric) is the appendix's.
 
     Returns
     -------
@@ -44,11 +46,12 @@ def headline_metrics(data: StudyData) -> tuple[list[str], dict[str, str], str | 
     counts = verdict.assign(agree=verdict["outcome"] == "agree", contradict=verdict["outcome"] == "contradict",
                             defined=verdict["outcome"] != "undefined").groupby("metric", sort=False)[
         ["agree", "contradict", "defined"]].sum()
-    candidates = [m for m in judged if counts.loc[m, "defined"] > 0]
+    comparable = [m for m in judged if m not in registry or registry[m].comparable_across_tasks]
+    candidates = [m for m in comparable if counts.loc[m, "defined"] > 0]
     net = {m: int(counts.loc[m, "agree"] - counts.loc[m, "contradict"]) for m in candidates}
     representatives = {}
     for name in dict.fromkeys(family.values()):
-        members = [m for m in candidates if family[m] == name and m not in primary]
+        members = [m for m in candidates if family[m] == name and m not in primary and counts.loc[m, "agree"] > 0]
         if members:
             representatives[name] = min(members, key=lambda m: (-net[m], -counts.loc[m, "agree"], judged.index(m)))
     against = [m for m in candidates if counts.loc[m, "contradict"] > 0]
@@ -56,6 +59,23 @@ def headline_metrics(data: StudyData) -> tuple[list[str], dict[str, str], str | 
                         default=None)
     chosen = set(primary) | set(representatives.values()) | ({contradicting} - {None})
     return [m for m in judged if m in chosen], representatives, contradicting
+
+
+def information_reasons(data: StudyData) -> dict[tuple[str, str], str]:
+    """(metric, task) → the information check's reason ("" when the value carries information)."""
+    checked = data.verdict.get("information")
+    if checked is None or checked.empty:
+        return {}
+    return dict(zip(zip(checked["metric"].astype(str), checked["task"].astype(str), strict=True),
+                    checked["reason"].fillna("").astype(str), strict=True))
+
+
+def reasons_shown(data: StudyData, metrics) -> set[str]:
+    """The reasons (keys of :data:`~taskcomplexity.report.outcomes.UNINFORMATIVE_REASONS`) behind the ○ cells of
+    ``metrics`` in the verdict: what the legend of a matrix of those metrics lists."""
+    verdict, known = data.verdict["verdict"], information_reasons(data)
+    chosen = verdict[verdict["metric"].isin(list(metrics))]
+    return {key for _, row in chosen.iterrows() for key in uninformative_reasons(row, known)}
 
 
 def verdict_matrix(data: StudyData, metrics: list[str] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -72,9 +92,10 @@ def verdict_matrix(data: StudyData, metrics: list[str] | None = None) -> tuple[p
     -------
     (matrix, titles) : pandas.DataFrame, pandas.DataFrame
         ``Known relation``, ``Kind`` and one column per metric (short label) with each outcome's mark
-        (:data:`~taskcomplexity.report.outcomes.OUTCOME_DISPLAY`); ``titles`` holds "value vs value, p = …".
+        (:data:`~taskcomplexity.report.outcomes.OUTCOME_DISPLAY`); ``titles`` holds "value vs value, p = …",
+        and for ○ the reason the verdict is uninformative.
     """
-    verdict = data.verdict["verdict"]
+    verdict, known = data.verdict["verdict"], information_reasons(data)
     relations = verdict[["easier", "harder", "kind"]].drop_duplicates()
     metrics = list(dict.fromkeys(verdict["metric"])) if metrics is None else list(metrics)
     indexed = verdict.set_index(["metric", "easier", "harder"])
@@ -86,7 +107,9 @@ def verdict_matrix(data: StudyData, metrics: list[str] | None = None) -> tuple[p
             column = data.registry.short(metric)
             v = indexed.loc[(metric, easier, harder)]
             row[column] = mark(v["outcome"])
-            tip[column] = (f"{data.registry.label(metric)}, {v['outcome']}: {num(v['value_easier'])} vs "
+            why = uninformative_reasons({**v, "metric": metric, "easier": easier, "harder": harder}, known)
+            because = f" ({'; '.join(UNINFORMATIVE_REASONS[k] for k in why)})" if why else ""
+            tip[column] = (f"{data.registry.label(metric)}, {v['outcome']}{because}: {num(v['value_easier'])} vs "
                            f"{num(v['value_harder'])}, p = {pvalue(v['pvalue'])}")
         rows.append(row)
         tips.append(tip)
@@ -203,8 +226,9 @@ def survival_tables(data: StudyData) -> dict[str, pd.DataFrame]:
     Returns
     -------
     dict of quantity to pandas.DataFrame
-        ``Known relation``, ``Kind``, one outcome column per metric (labels) and ``Survives`` (yes/no);
-        only quantities with at least two metrics in the verdict.
+        ``Known relation``, ``Kind``, one outcome column per metric (labels) and ``Survives``
+        (:func:`~taskcomplexity.verdict.judge.survival`: yes, no, one informative estimator, no significant
+        verdict); only quantities with at least two metrics in the verdict.
     """
     verdict = data.verdict["verdict"]
     quantities = dict.fromkeys(m.quantity for m in data.registry if m.quantity)
@@ -217,7 +241,6 @@ def survival_tables(data: StudyData) -> dict[str, pd.DataFrame]:
         wide.insert(0, RELATION, [relation_name(data, a, b) for a, b in zip(wide.pop("easier"), wide.pop("harder"),
                                                                              strict=True)])
         wide["kind"] = wide["kind"].map(kind_label)
-        wide["survives"] = wide["survives"].map({True: "yes", False: "no"})
         tables[quantity] = wide.rename(columns={"kind": "Kind", "survives": "Survives", **{
             m: data.registry.label(m) for m in metrics}})
     return tables

@@ -5,10 +5,11 @@
 An RWG artefact + the metrics estimator settings + :class:`DiagnosticsSettings` → tables under
 ``<cache>/diagnostics/<key>/``:
 
-- ``null.parquet``: PIC and POIC of the returns permuted across policies (true MI = 0), one row per
-  repeat (``repeat``, ``pic``, ``h_r``, ``h_r_given_theta``, ``poic``, ``temperature``);
-- ``null_summary.parquet``: per metric (pic, poic) the observed value, null mean, null sd, observed
-  minus null (``excess``) and its z-score;
+- ``null.parquet``: every estimator of I(Θ; R) (histogram, Miller–Madow and nearest-neighbour PIC) and
+  POIC on the returns permuted across policies (true MI = 0), one row per repeat (``repeat``, ``pic``,
+  ``h_r``, ``h_r_given_theta``, ``poic``, ``temperature``, ``pic_miller_madow``, ``pic_knn``);
+- ``null_summary.parquet``: per estimator (pic, poic, pic_miller_madow, pic_knn) the observed value, null
+  mean, null sd, observed minus null (``excess``) and its z-score;
 - ``bins_sweep.parquet``: histogram and Miller–Madow PIC for B = 10 … the metrics bins;
 - ``subsample_sweep.parquet``: histogram PIC on nested subsamples of policies and episodes;
 - ``estimators.parquet``: one row: histogram PIC and POIC against their nulls, and every registered
@@ -50,7 +51,7 @@ from taskcomplexity.stages.stage_log import each_task
 log = logging.getLogger(__name__)
 
 STAGE = "diagnostics"
-NUMERICS = Numerics(version=2, modules=(*ESTIMATORS, "stages.metrics_stage", "stages.diagnostics_stage"))
+NUMERICS = Numerics(version=3, modules=(*ESTIMATORS, "stages.metrics_stage", "stages.diagnostics_stage"))
 FILES = (
     "null.parquet",
     "null_summary.parquet",
@@ -192,10 +193,10 @@ def compute_diagnostics(
     returns, bins = sample.returns, sample.estimation.bins
     steps = tqdm(total=5, desc="diagnostics", disable=not progress, leave=False)
 
-    null = est.permutation_null(
-        returns, seed=sample.seed("null"), repeats=settings.repeats, bins=bins, search=sample.estimation.search
-    )
-    summary = est.summarise_null(null, {"pic": sample.pic.pic, "poic": sample.poic.poic})
+    null = est.permutation_null(returns, seed=sample.seed("null"), repeats=settings.repeats, bins=bins,
+                                search=sample.estimation.search, knn=sample.knn_options)
+    summary = est.summarise_null(null, {"pic": sample.pic.pic, "poic": sample.poic.poic,
+                                        "pic_miller_madow": sample.pic_miller_madow.pic, "pic_knn": sample.knn.mi})
     steps.update()
 
     sweep_bins = sorted({b for b in settings.bins_sweep if b <= bins} | {bins})

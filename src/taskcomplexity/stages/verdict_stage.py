@@ -62,14 +62,12 @@ from taskcomplexity.verdict.references import correlations, quantities, referenc
 log = logging.getLogger(__name__)
 
 STAGE = "verdict"
-NUMERICS = Numerics(version=3, modules=(
+NUMERICS = Numerics(version=4, modules=(
     "verdict.gather", "verdict.judge", "verdict.information", "verdict.references", "metrics.registry",
     "metrics.batches", "metrics.sac", "metrics.statistics", "stages.verdict_stage",
 ))
 FILES = ("verdict.parquet", "summary.parquet", "references.parquet", "correlations.parquet", "values.parquet",
          "samples.parquet", "welch.parquet", "information.parquet")
-NULLS = ("pic", "poic")
-"""Columns of the diagnostics' ``null.parquet``: the permutation nulls the information check reads."""
 SAC_FILE = "sac_per_seed.parquet"
 
 
@@ -183,7 +181,7 @@ def run_verdict_stage(
         nulls = {}
         for task, artefact in diagnostics.items():
             null = pd.read_parquet(artefact.file("null.parquet"))
-            nulls.update({(name, task): null[name].to_numpy() for name in NULLS if name in null.columns})
+            nulls.update({(name, task): null[name].to_numpy() for name in registry.nulls() if name in null.columns})
         policies = gather_policies(tables, registry=registry)
         checked = information(values, nulls, policies, registry=registry, alpha=alpha)
         blank = uninformative(checked)

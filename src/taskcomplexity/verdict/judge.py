@@ -247,6 +247,26 @@ def _null_driven(points: pd.Series, nulls: Mapping[tuple[str, str], float], metr
     return False
 
 
+SURVIVAL = ("yes", "no", "one informative estimator", "no significant verdict")
+"""Whether a relation's verdict survives a change of estimator (:func:`survival`), in the report's order."""
+
+
+def survival(outcomes: Iterable[str]) -> str:
+    """Does the verdict on one relation survive a change of estimator? One of :data:`SURVIVAL`.
+
+    Only the informative estimators' outcomes count (an uninformative one measures its estimator, and a
+    missing one was not computed): "no significant verdict" when none of them is significant (agree,
+    contradict); "one informative estimator" when there is no other to change to; otherwise "yes" when
+    every informative estimator reaches the same outcome, "no" when they differ.
+    """
+    informative = [o for o in outcomes if isinstance(o, str) and o not in ("uninformative", "")]
+    if not any(o in ("agree", "contradict") for o in informative):
+        return "no significant verdict"
+    if len(informative) < 2:
+        return "one informative estimator"
+    return "yes" if len(set(informative)) == 1 else "no"
+
+
 def by_relation(verdict: pd.DataFrame, metrics: Iterable[str]) -> pd.DataFrame:
     """Outcome of every relation under each of ``metrics``: does a verdict survive a change of estimator?
 
@@ -260,8 +280,8 @@ def by_relation(verdict: pd.DataFrame, metrics: Iterable[str]) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        ``easier``, ``harder``, ``kind``, one column of outcomes per metric present, and
-        ``survives``: every present metric reached the same outcome. Empty (those columns only)
+        ``easier``, ``harder``, ``kind``, one column of outcomes per metric present ("" where not
+        computed), and ``survives``: :func:`survival` of the row's outcomes. Empty (those columns only)
         when fewer than two of ``metrics`` are present.
     """
     metrics = [m for m in metrics if (verdict["metric"] == m).any()]
@@ -273,8 +293,9 @@ def by_relation(verdict: pd.DataFrame, metrics: Iterable[str]) -> pd.DataFrame:
     order = pd.MultiIndex.from_frame(chosen[index].drop_duplicates())
     wide = wide.reindex(index=order, columns=metrics)
     wide.columns.name = None
-    wide["survives"] = wide.nunique(axis=1, dropna=True) <= 1
-    return wide.fillna("").reset_index()
+    wide = wide.fillna("")
+    wide["survives"] = [survival(row) for row in wide[metrics].itertuples(index=False)]
+    return wide.reset_index()
 
 
 def pairwise_welch(samples: pd.DataFrame, *, registry: Registry, alpha: float = SIGNIFICANCE_LEVEL) -> pd.DataFrame:
