@@ -3,6 +3,8 @@ against Pendulum-v1 at N = 64, M = 8 with the published B = 10⁵), and says how
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 import pytest
 
@@ -67,6 +69,9 @@ def test_the_verdict_table_prints_the_n_to_resolve_and_the_nulls_share(published
     unresolved = verdict[verdict["outcome"] == "not significant"]
     assert (unresolved["policies_to_resolve"].dropna() > 0).all()
     assert "N to resolve" in text and "Null's share of the difference" in text
+    for sentence in re.findall(r"More sampling: [^\n]*?N\^-1/2 and the difference stays as measured\)\.[^\n]*", text):
+        # The projection names the B it holds fixed, and for a metric with a null says the test is all it projects.
+        assert "same M and B = 100,000" in sentence and "information check can still find" in sentence
     table1 = text.split("PIC null share", 1)
     assert len(table1) == 2  # Table 1 carries the null's share per task
 

@@ -309,10 +309,23 @@ def resolve_sentences(data: StudyData) -> list[str]:
         needs = sorted(rows["policies_to_resolve"])
         span = (f"N ≈ {significant_int(needs[0])}" if len(needs) == 1 else
                 f"N ≈ {significant_int(needs[0])} to {significant_int(needs[-1])}")
-        sentences.append(f"More sampling: {plural(len(rows), 'unresolved relation')} of {metric.label} would be "
-                         f"resolved at {span} policies (now N = {n:,}, same M; assuming the batches' sd falls as "
-                         "N^-1/2 and the difference stays as measured).")
+        bins = _bins(data)
+        same = "same M" + (f" and B = {bins:,}" if bins else "")
+        sentence = (f"More sampling: {plural(len(rows), 'unresolved relation')} of {metric.label} would be "
+                    f"resolved by Welch's test at {span} policies (now N = {n:,}, {same}; assuming the batches' sd "
+                    "falls as N^-1/2 and the difference stays as measured).")
+        if metric.information is not None and metric.information.null and not metric.information.net_of_null:
+            sentence += (f" That projects the test alone: {metric.label}'s permutation nulls move with N, M and B, "
+                         "so at that N the information check can still find the difference to be the nulls'.")
+        sentences.append(sentence)
     return sentences
+
+
+def _bins(data: StudyData) -> int | None:
+    """The histogram bins B the metrics stage used (None when its artefacts do not say)."""
+    found = {int(r.metrics.manifest.get("config", {}).get("bins", 0)) for r in data.results.values()
+             if getattr(r, "metrics", None) is not None}
+    return found.pop() if len(found) == 1 and 0 not in found else None
 
 
 def reference_sentences(data: StudyData) -> list[str]:
