@@ -68,7 +68,7 @@ def test_the_verdict_table_prints_the_n_to_resolve_and_the_nulls_share(published
     assert {"policies_to_resolve", "null_share_of_difference"} <= set(verdict.columns)
     unresolved = verdict[verdict["outcome"] == "not significant"]
     assert (unresolved["policies_to_resolve"].dropna() > 0).all()
-    assert "N to resolve" in text and "Null's share of the difference" in text
+    assert "N to resolve" in text and "Nulls' share of Δ" in text
     for sentence in re.findall(r"More sampling: [^\n]*?N\^-1/2 and the difference stays as measured\)\.[^\n]*", text):
         # The projection names the B it holds fixed, and for a metric with a null says the test is all it projects.
         assert "same M and B = 100,000" in sentence and "information check can still find" in sentence

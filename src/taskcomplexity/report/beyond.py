@@ -15,7 +15,7 @@ import pandas as pd
 from taskcomplexity.metrics.registry import BEYOND
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import MISSING, mean_sd, of_total
+from taskcomplexity.report.format import MISSING, and_list, mean_sd, of_total
 from taskcomplexity.report.html import Paragraph, Section
 from taskcomplexity.report.methods import direction
 from taskcomplexity.report.writer import Writer
@@ -64,8 +64,9 @@ def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None =
     unanswered = left_open(verdict, primary)
     known = "known relation"
     if unanswered.empty:
+        computed = any((verdict["metric"] == m.name).any() for m in proposed)
         sentences = [f"{names} leave no {known} open (one of them agrees with each), so no proposed metric has "
-                     "a relation to settle; their own records follow."]
+                     "a relation to settle" + ("; their own records follow." if computed else ".")]
     else:
         listed = "; ".join(
             _relation(data, r) + " (" + ", ".join(f"{registry.label(m)} {VERB.get(r[m], r[m])}" for m in primary
@@ -74,12 +75,20 @@ def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None =
         leave = "leaves" if len(primary) == 1 else "leave"
         none = {1: "it does not agree", 2: "neither agrees"}.get(len(primary), "none of them agrees")
         sentences = [f"{names} {leave} {of_total(len(unanswered), len(relations), known)} open ({none}): {listed}."]
+    absent: dict[str, list[str]] = {}  # what a stage needs → the proposed metrics it would have computed
+    for metric in proposed:
+        if not (verdict["metric"] == metric.name).any():
+            absent.setdefault((missing or {}).get(metric.stage) or NOT_RUN, []).append(metric.label)
+    for needs, labels in absent.items():
+        listed = and_list(labels)
+        verb = "was" if len(labels) == 1 else "were"
+        if len(labels) > 1 and needs.startswith("it needs"):  # the stages' records speak of one metric
+            needs = "they need" + needs[len("it needs"):]
+        sentences.append(f"{listed[:1].upper()}{listed[1:]} {verb} not computed for this report: {needs}.")
     for metric in proposed:
         own = verdict[verdict["metric"] == metric.name]
         label = metric.label[:1].upper() + metric.label[1:]
         if own.empty:
-            needs = (missing or {}).get(metric.stage) or NOT_RUN
-            sentences.append(f"{label} was not computed for this report: {needs}.")
             continue
         agree, contradict = int((own["outcome"] == "agree").sum()), int((own["outcome"] == "contradict").sum())
         if len(own) == 1:

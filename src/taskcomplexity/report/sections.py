@@ -308,7 +308,9 @@ def diagnostics_section(writer: Writer, data: StudyData) -> Section:
             table, f"verdict_survival_{slug(quantity)}" if len(survival_tables(data)) > 1 else "verdict_survival",
             "Does each verdict survive a change of estimator?",
             f"Outcome of each known relation under every estimator of {quantity} ({', '.join(compared)}), each "
-            "tested with Welch's t-test on the same policy batches; 'yes' when all of them agree.",
+            "tested with Welch's t-test on the same policy batches. Survives: 'yes' when at least two estimators "
+            "are informative and all of those reach the same outcome, 'no' when they differ (an uninformative "
+            "estimator measures its bias and is left out of the comparison).",
         ))
     return Section(title, tuple(blocks))
 
@@ -347,6 +349,8 @@ def appendix_section(writer: Writer, data: StudyData) -> Section:
         files=(outcome_words(matrix), "Outcome of every metric on every known relation (Welch's t-test)."))
     full = writer.table(verdict_display(data), "verdict", "The full verdict.",
                         "Every (metric, known relation): the two values, the outcome and the p-value of Welch's "
-                        "t-test, with the number of samples tested on each side (batches or seeds).")
+                        "t-test, with the number of samples tested on each side (batches or seeds), the share "
+                        "of the difference that is the difference of the two tasks' permutation nulls, and the N "
+                        "at which Welch's test would resolve a relation left open.", wrap=True)
     return Section("Appendix: the full verdict table", (whole, full))
 

@@ -135,7 +135,7 @@ def verdict_display(data: StudyData) -> pd.DataFrame:
         "Outcome": verdict["outcome"],
         "p": verdict["pvalue"].map(pvalue),
         "Samples": [f"{a} vs {b}" for a, b in zip(verdict["samples_easier"], verdict["samples_harder"], strict=True)],
-        "Null's share of the difference": verdict["null_share_of_difference"].map(percent),
+        "Nulls' share of Δ": verdict["null_share_of_difference"].map(percent),
         "N to resolve": verdict["policies_to_resolve"].map(policies_needed),
     })
 
