@@ -1,6 +1,6 @@
 """Write the Python API reference (``reference/api/``): one page per public module, rendered by mkdocstrings.
 
-mkdocs-gen-files runs this script at every build. Every module of the packages below gets a page holding
+docs/hooks/gen_reference.py writes these pages at every build. Every module of the packages below gets a page holding
 ``::: taskcomplexity.<module>`` (private modules, ``_name.py``, are left out), and each package a page with
 its own docstring; ``SUMMARY.md`` gives literate-nav the order. A module added to a package appears in the
 reference without an edit here.
@@ -93,20 +93,3 @@ def pages() -> dict[str, str]:
     out[f"{OUT}/index.md"] = "\n".join(overview) + "\n"
     out[f"{OUT}/SUMMARY.md"] = "\n".join(summary) + "\n"
     return out
-
-
-def main() -> None:
-    """Write the pages through mkdocs-gen-files (at build time) or print them (by hand)."""
-    if __name__ == "<run_path>":  # runpy.run_path: mkdocs-gen-files is building the site
-        import mkdocs_gen_files
-
-        for path, text in pages().items():
-            with mkdocs_gen_files.open(path, "w") as page:
-                page.write(text)
-    else:
-        for path, text in pages().items():
-            print(f"===== {path}\n{text}")
-
-
-if __name__ in {"__main__", "<run_path>"}:
-    main()

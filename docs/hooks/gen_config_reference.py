@@ -1,6 +1,6 @@
 """Write the configuration reference (``reference/config/``) from the YAML files under ``src/taskcomplexity/conf``.
 
-mkdocs-gen-files runs this script at every build, so the pages cannot drift from the configs: one page per
+docs/hooks/gen_reference.py writes these pages at every build, so they cannot drift from the configs: one page per
 config group, one section per option, and for every key its dotted path, its value as written and the comment
 that documents it. Comments are read from the YAML source itself:
 
@@ -352,20 +352,3 @@ def pages(conf: Path = CONF) -> dict[str, str]:
         summary.append(f"* [{group}]({page_name(group)})")
     out[f"{OUT}/SUMMARY.md"] = "\n".join(summary) + "\n"
     return out
-
-
-def main() -> None:
-    """Write the pages through mkdocs-gen-files (at build time) or print them (by hand)."""
-    if __name__ == "<run_path>":  # runpy.run_path: mkdocs-gen-files is building the site
-        import mkdocs_gen_files
-
-        for path, text in pages().items():
-            with mkdocs_gen_files.open(path, "w") as page:
-                page.write(text)
-    else:
-        for path, text in pages().items():
-            print(f"===== {path}\n{text}")
-
-
-if __name__ in {"__main__", "<run_path>"}:
-    main()
