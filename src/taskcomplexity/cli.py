@@ -14,6 +14,7 @@ import functools
 import logging
 import os
 import re
+import shlex
 import signal
 import sys
 import threading
@@ -281,14 +282,28 @@ def user_overrides() -> list[str]:
 def sac_command() -> str:
     """The command that trains the SAC curves a run without SAC lacks: its own overrides + sac.enabled=true.
 
-    ``make paper`` is that command for ``make run`` (``experiment=published``). The program is the
-    one this process runs as: ``python pipelines/study.py`` in a checkout, else the console script.
+    ``make paper`` is that command for ``make run`` (``experiment=published``). Otherwise it is this run's own
+    command, so that pasted into a shell it finds what this run found: the ``PYTHONPATH`` it ran with (a user's
+    env module), this interpreter (``.venv/bin/python`` in a checkout, else the console script) and every
+    override typed, search path included, quoted for the shell.
     """
     kept = [o for o in user_overrides() if o.split("=", 1)[0].lstrip("+~") not in ("sac.enabled", "force")]
+    if kept == ["experiment=published"]:
+        return f"make paper ({rerun_command([*kept, 'sac.enabled=true'])})"
+    return rerun_command([*kept, "sac.enabled=true"])
+
+
+def rerun_command(overrides: list[str]) -> str:
+    """This process's study command with ``overrides``, in its environment, as a shell line."""
     checkout = Path(sys.argv[0]).parent.name == "pipelines"
-    program = "python pipelines/study.py" if checkout else "taskcomplexity-study"
-    command = " ".join([program, *kept, "sac.enabled=true"])
-    return f"make paper ({command})" if kept == ["experiment=published"] else command
+    if checkout:
+        interpreter = os.path.relpath(sys.executable)
+        program = [interpreter if not interpreter.startswith("..") else sys.executable, "pipelines/study.py"]
+    else:
+        program = ["taskcomplexity-study"]
+    path = os.environ.get("PYTHONPATH", "")
+    prefix = [f"PYTHONPATH={shlex.quote(path)}"] if path else []
+    return " ".join([*prefix, *program, *(shlex.quote(o) for o in overrides)])
 
 
 def refuse_unread_groups(typed: list[str], unread: tuple[str, ...], command: str, instead: str) -> None:

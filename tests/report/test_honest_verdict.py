@@ -10,10 +10,10 @@ import pytest
 
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.build import build_report
+from taskcomplexity.report.format import of_total
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.report.format import of_total
 from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 

@@ -139,3 +139,22 @@ def test_relations_that_go_round_in_a_cycle_are_refused_in_one_line_before_any_w
     relations = {("cartpole", "pendulum"), ("pendulum", "acrobot"), ("acrobot", "cartpole")}
     assert all(pair in relations for pair in zip(cycle, cycle[1:], strict=False))  # each "<" is a stated relation
     assert not list((tmp_path / "out").rglob("*.parquet"))
+
+
+def test_the_suggested_command_reruns_in_the_environment_it_ran_in(monkeypatch, tmp_path):
+    """A report's "train SAC" command, pasted into a shell, finds what the run found: its PYTHONPATH (a user's env
+    module), its interpreter and its search path, quoted for the shell."""
+    from taskcomplexity import cli
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "argv", [str(tmp_path / "pipelines" / "study.py")])
+    monkeypatch.setattr(sys, "executable", str(tmp_path / ".venv" / "bin" / "python"))
+    monkeypatch.setenv("PYTHONPATH", "examples/lab")
+    monkeypatch.setattr(cli, "user_overrides", lambda: [
+        "hydra.searchpath=[file:///home/me/lab/conf]", "study=reach1d", "experiment=quick", "force=true"])
+    assert cli.sac_command() == ("PYTHONPATH=examples/lab .venv/bin/python pipelines/study.py "
+                                 "'hydra.searchpath=[file:///home/me/lab/conf]' study=reach1d experiment=quick "
+                                 "sac.enabled=true")
+    monkeypatch.delenv("PYTHONPATH")
+    monkeypatch.setattr(cli, "user_overrides", lambda: ["experiment=published"])
+    assert cli.sac_command() == "make paper (.venv/bin/python pipelines/study.py experiment=published sac.enabled=true)"

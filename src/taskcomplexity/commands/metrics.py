@@ -52,7 +52,8 @@ def run(cfg: DictConfig):
         log.info("%s: %s", result.task_id, result.metrics.file("metrics.parquet"))
     names = ["task", *(m.name for m in DEFAULT_REGISTRY.of_stage(STAGE))]
     frame = metrics_frame(results)
-    print(f"{run_name(cfg)}:\n" + frame[[c for c in names if c in frame.columns]].to_string(index=False), flush=True)
+    heading = f"study {run_name(cfg)}" if scope == "study" else f"task {requests[0].label}"
+    print(f"{heading}:\n" + frame[[c for c in names if c in frame.columns]].to_string(index=False), flush=True)
     return results
 
 

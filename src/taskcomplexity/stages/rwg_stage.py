@@ -116,7 +116,10 @@ class RWGRequest:
         s = self.settings
         contacts = " contact-model" if self.models_contacts else ""
         precision = f" {s.precision}" if s.precision != "float64" else ""
-        return (f"{self.task.task_id} {self.network.tag} {self.prior.kind} N={s.policies} M={s.episodes} "
+        # An env's constructor arguments tell apart two tasks of one env id (e.g. Pendulum-v1 at two gravities).
+        kwargs = dict(sorted(getattr(self.task, "kwargs", {}).items()))
+        arguments = "(" + ", ".join(f"{k}={v}" for k, v in kwargs.items()) + ")" if kwargs else ""
+        return (f"{self.task.task_id}{arguments} {self.network.tag} {self.prior.kind} N={s.policies} M={s.episodes} "
                 f"seed={s.seed}{contacts}{precision}")
 
 
