@@ -7,8 +7,8 @@ within ``golden_runs.TOLERANCE``: CI runs this file on both paths (``tests/cpu_p
 
 The stages are read from the stage records. A declared stage without a golden run, or a golden run without a
 record, is skipped with the line that says how to add or record it; values a golden run holds that are not
-recorded (a new metric's columns and rows) fail nothing and are reported as an :class:`UnrecordedGolden`
-warning naming the command that records them; a recorded value that is gone or changed fails.
+recorded (a new metric's columns and rows) fail nothing and are reported as a warning naming the command that
+records them; a recorded value that is gone or changed fails.
 """
 
 from __future__ import annotations
@@ -46,10 +46,8 @@ STAGES = declared_stages()
 """Every stage of the chain, read from the stage records."""
 
 
-class UnrecordedGolden(UserWarning):
-    """A golden run holds values that are not recorded: they are not compared until they are recorded."""
-
-
+# The warning is a built-in UserWarning: pytest-xdist sends a worker's warnings to the controller by their class,
+# which must be importable there, and a class of this test module is not (make test runs on workers).
 @pytest.fixture(scope="module")
 def now(tmp_path_factory):
     """Every golden run, each computed when a test first reads it (one stage's test runs what it reads only)."""
@@ -67,7 +65,7 @@ def compare(stage: str, now, then: dict, values: dict | None = None) -> None:
     assert message is None, message
     added = additions(now[stage], values[stage] if values is not None else recorded_values(stage, then[stage]))
     if added:
-        warnings.warn(unrecorded_note(stage, added), UnrecordedGolden, stacklevel=2)
+        warnings.warn(unrecorded_note(stage, added), UserWarning, stacklevel=2)
 
 
 @pytest.mark.parametrize("stage", STAGES)
@@ -196,7 +194,7 @@ def test_a_new_metrics_columns_and_rows_are_reported_with_the_record_command_and
     assert difference(now["metrics"].values["case"], values["metrics"]["case"]) is None
     assert additions(now["metrics"], values["metrics"]) == [
         "case › verdict.parquet › rows of metric best", "case › metrics.parquet › best"]
-    with pytest.warns(UnrecordedGolden, match=r"stage metrics's golden run holds values that are not recorded "
+    with pytest.warns(UserWarning, match=r"stage metrics's golden run holds values that are not recorded "
                       r"\(case › verdict.parquet › rows of metric best, case › metrics.parquet › best\): they are "
                       r"not compared until you record them with `PYTHONPATH=src python tests/golden/golden_runs.py "
                       r"--record metrics`"):

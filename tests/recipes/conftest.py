@@ -52,9 +52,10 @@ class Scratch:
         return self.run(*words[1:], *more, timeout=timeout)
 
     def pytest(self, *paths: str, timeout: float = 300) -> subprocess.CompletedProcess:
-        """The tests ``paths`` of the copy (its own conftest and pyproject), one process."""
-        return self.run("-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist", "-m", "not slow",
-                        *paths, timeout=timeout)
+        """The tests ``paths`` of the copy (its own conftest and pyproject), run as ``make test`` runs them: on two
+        pytest-xdist workers, a file per worker (what a worker reports to the controller must cross that line)."""
+        return self.run("-m", "pytest", "-q", "-p", "no:cacheprovider", "-n", "2", "--dist", "loadfile",
+                        "-m", "not slow", *paths, timeout=timeout)
 
 
 @pytest.fixture

@@ -22,7 +22,8 @@ def test_the_page_adds_a_task_preset_in_the_file_it_states(scratch):
     ((env, words),) = commands(text)  # the page's command: random policies on the new preset
     assert words[1:3] == ["pipelines/rwg.py", f"task={PRESET}"]
     run = scratch.command(env, words)
-    assert f"returns {PRESET} " in run.stdout + run.stderr  # the preset's name is the task id
+    # The preset's name is the task id (its env's constructor arguments follow it in the label).
+    assert f"returns {PRESET}(g=3.7) " in run.stdout + run.stderr
     (returns,) = (scratch.root / "outputs" / "cache" / "rwg").glob("*/returns.parquet")
     policies, episodes = (int(w.split("=")[1]) for w in words if w.startswith(("rwg.policies=", "rwg.episodes=")))
     assert len(pd.read_parquet(returns)) == policies * episodes
