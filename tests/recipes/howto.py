@@ -26,6 +26,8 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
+import pytest
+
 REPOSITORY = Path(__file__).resolve().parents[2]
 HOW_TO = REPOSITORY / "docs" / "how-to"
 
@@ -128,6 +130,16 @@ def apply(root: Path, chosen: list[Block]) -> list[Path]:
             path.write_text("".join(lines[:where]) + text + "".join(lines[where:]), encoding="utf-8")
         changed[path] = None
     return list(changed)
+
+
+def skip_if_followed(chosen: list[Block], source: Path = REPOSITORY) -> None:
+    """Skip the calling test when ``source`` already holds a file the page creates: the page has been followed in
+    this repository, and following it again on a copy would insert its lines twice. The recipe test ran when it
+    was followed; a researcher's own metric, stage or family under another name leaves the test running."""
+    held = [block.path for block in chosen if block.how == "file" and (source / block.path).exists()]
+    if held:
+        pytest.skip(f"the repository already holds this page's example ({', '.join(held)}); following the page "
+                    "again would declare it twice")
 
 
 COPIED = ("src", "tests", "conf", "pipelines", "pyproject.toml")

@@ -14,13 +14,14 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from howto import REPOSITORY, apply, blocks, copy_repository, page, stated_counts, touched
+from howto import REPOSITORY, apply, blocks, copy_repository, page, skip_if_followed, stated_counts, touched
 
 ROOT = REPOSITORY
 PAGE = "add-a-policy-family.md"
 FENCE = re.compile(r"^```(?P<language>\w+)[^\n]*\n(?P<text>.*?)^```$", re.S | re.M)
 FILES = ["src/taskcomplexity/policies/constant.py", "src/taskcomplexity/conf/network/constant.yaml",
-         "src/taskcomplexity/policies/families.py", "src/taskcomplexity/stages/rwg_stage.py"]
+         "src/taskcomplexity/policies/families.py", "src/taskcomplexity/stages/rwg_stage.py",
+         "src/taskcomplexity/policies/__init__.py"]
 """The files the page touches, in its order."""
 RUNS = (("kernel", "Pendulum-v1"), ("gym", "CartPole-v1"))
 """The backend and the task of each of the page's commands."""
@@ -42,6 +43,7 @@ def environment(root: Path) -> dict[str, str]:
 def recipe(tmp_path_factory) -> Path:
     """A scratch copy of the repository (the sources with numba's caches, the pipelines, the tests it runs) with
     the page's blocks applied."""
+    skip_if_followed(blocks(page(PAGE)))
     root = copy_repository(tmp_path_factory.mktemp("recipe"))
     apply(root, blocks(page(PAGE)))
     return root
@@ -49,7 +51,7 @@ def recipe(tmp_path_factory) -> Path:
 
 def test_the_page_states_the_files_it_touches():
     assert touched(blocks(page(PAGE))) == FILES
-    assert stated_counts(page(PAGE))[0] == len(FILES) == 4
+    assert stated_counts(page(PAGE))[0] == len(FILES) == 5
 
 
 def test_the_new_family_runs_rwg_on_the_kernel_and_gym_backends_as_printed(recipe):
@@ -76,7 +78,8 @@ def test_the_policy_tests_pass_with_the_new_family_registered(recipe):
     stage's declaration covers its module (tests/stages/test_numerics.py), and the copy stays lint-clean."""
     done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p", "no:cacheprovider", "-p", "no:xdist",
                            "tests/test_policies.py",
-                           "tests/stages/test_numerics.py::test_a_stages_declaration_covers_every_module_it_runs"],
+                           "tests/stages/test_numerics.py::test_a_stages_declaration_covers_every_module_it_runs",
+                           "tests/test_docstring_references.py::test_each_package_docstring_names_every_module_of_its_folder"],
                           cwd=recipe, env=environment(recipe), capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     passed = set(re.findall(r"^PASSED tests/test_policies.py::(\w+)\[constant-(\w+)\]", done.stdout, re.M))

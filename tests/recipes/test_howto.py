@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from howto import Block, apply, blocks, stated_counts, touched
+from howto import Block, apply, blocks, skip_if_followed, stated_counts, touched
 
 PAGE = '''# A page
 
@@ -72,3 +72,11 @@ def test_an_unknown_marker_or_an_anchor_not_there_once_is_refused(tmp_path):
         apply(tmp_path, [twice])
     with pytest.raises(ValueError, match=r"is there 0 times"):
         apply(tmp_path, [Block("x.yaml", "before", "c: 3", "b: 2\n", "")])
+
+
+def test_a_page_already_followed_in_the_repository_is_skipped_not_declared_twice(tmp_path):
+    chosen = blocks(PAGE)
+    skip_if_followed(chosen, source=tmp_path)  # not followed: the test goes on
+    apply(tmp_path, chosen[:1])
+    with pytest.raises(pytest.skip.Exception, match=r"already holds this page's example \(src/package/new.py\)"):
+        skip_if_followed(chosen, source=tmp_path)
