@@ -9,7 +9,7 @@ import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from taskcomplexity.report.format import and_list, naming
+from taskcomplexity.report.format import and_list, naming, significant_int
 from taskcomplexity.report.headline import measure_sentence, primary_sentence, survival_sentence
 from taskcomplexity.report.verdict_tables import RELATION
 from taskcomplexity.verdict.judge import survival as survival_of
@@ -324,3 +324,50 @@ def test_the_survival_sentence_counts_what_the_table_holds(rows):
         named[estimator] = counted(phrase)
     blank = {e: sum(row[i] == "uninformative" for row in rows) for i, e in enumerate(ESTIMATORS[:len(rows[0])])}
     assert named == {e: n for e, n in blank.items() if n}
+
+
+# --- more sampling ----------------------------------------------------------------------------------------------
+
+
+def sampling_data(bins: int, policies: int = 1000, episodes: int = 50):
+    """A study's artefacts as resolve_sentences reads them: PIC and POIC unresolved on relation t0 > u0 (Welch
+    would resolve them at N ≈ 5,000 and 8,000), PIC's difference on t1 > u1 mostly the nulls', where PIC − null
+    agrees."""
+    from types import SimpleNamespace
+
+    from taskcomplexity.metrics import DEFAULT_REGISTRY
+
+    def row(metric, i, outcome, resolve=float("nan"), informative=True):
+        return {"metric": metric, "easier": f"t{i}", "harder": f"u{i}", "outcome": outcome, "policies": policies,
+                "policies_to_resolve": resolve, "informative_easier": informative, "informative_harder": informative}
+
+    verdict = pd.DataFrame([row("pic", 0, "not significant", 5000.0), row("poic", 0, "not significant", 8000.0),
+                            row("pic", 1, "uninformative"), row("pic_minus_null", 1, "agree")])
+    manifest = SimpleNamespace(manifest={"config": {"bins": bins}})
+    return SimpleNamespace(verdict={"verdict": verdict}, registry=DEFAULT_REGISTRY,
+                           metrics=pd.DataFrame({"policies": [policies] * 2, "episodes": [episodes] * 2}),
+                           results={t: SimpleNamespace(metrics=manifest) for t in ("a", "b")})
+
+
+def test_more_sampling_states_what_it_holds_and_that_auto_b_lets_the_values_approach_their_nulls():
+    from taskcomplexity.metrics.pic import auto_bins
+    from taskcomplexity.report.headline import resolve_sentences
+
+    pic, settle, poic = resolve_sentences(sampling_data(bins=auto_bins(1000, 50)))
+    assert pic.startswith("More sampling: 1 unresolved relation of PIC would be resolved by Welch's test at "
+                          f"N ≈ {significant_int(5000)} policies (now N = 1,000; holding M and B = 1,000, assuming")
+    assert "PIC's permutation nulls move with N too, and the report does not predict them there." in pic
+    assert pic.endswith("Under metrics.bins=auto, B = N·M/50 grows with N and PIC's values approach their nulls: "
+                        "hold B (metrics.bins=1000) to test these at more N.")
+    assert "(now N = 1,000; holding M, assuming" in poic and "B =" not in poic  # POIC has no bins
+    assert settle == ("More policies at metrics.bins=auto do not settle the 1 relation where PIC's difference is "
+                      "mostly the nulls' (B grows with N and the values approach their nulls): the nulls shrink with "
+                      "more episodes M at a held B; PIC − null, net of its nulls, agrees on 1 of them.")
+
+
+def test_with_a_b_off_the_auto_rule_more_sampling_says_nothing_of_auto():
+    from taskcomplexity.report.headline import resolve_sentences
+
+    pic, settle, _ = resolve_sentences(sampling_data(bins=100_000))
+    assert "holding M and B = 100,000" in pic and "metrics.bins=auto" not in pic
+    assert settle.startswith("On the 1 relation where PIC's difference is mostly the nulls': the nulls shrink")

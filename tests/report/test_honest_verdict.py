@@ -69,9 +69,15 @@ def test_the_verdict_table_prints_the_n_to_resolve_and_the_nulls_share(published
     unresolved = verdict[verdict["outcome"] == "not significant"]
     assert (unresolved["policies_to_resolve"].dropna() > 0).all()
     assert "N to resolve" in text and "Nulls' share of Δ" in text
-    for sentence in re.findall(r"More sampling: [^\n]*?N\^-1/2 and the difference stays as measured\)\.[^\n]*", text):
-        # The projection names the B it holds fixed, and for a metric with a null says the test is all it projects.
-        assert "same M and B = 100,000" in sentence and "information check can still find" in sentence
+    sentences = re.findall(r"More sampling: [^\n]*?N\^-1/2 and the difference stays as measured\)\.[^\n]*", text)
+    projected = unresolved[unresolved["metric"].isin(["pic", "poic"])
+                           & (unresolved["policies_to_resolve"] > unresolved["policies"])]
+    assert len(sentences) == projected["metric"].nunique()  # one sentence per primary metric with a projection
+    for sentence in sentences:
+        # The projection names what it holds (B only for the histogram estimator), and for a metric with a null
+        # says the test is all it projects; B = 10⁵ is not the auto rule's N·M/50 here, so nothing is said of auto.
+        held = "holding M and B = 100,000," if " of PIC " in sentence else "holding M,"
+        assert held in sentence and "nulls move with N too" in sentence and "bins=auto" not in sentence
     table1 = text.split("PIC null share", 1)
     assert len(table1) == 2  # Table 1 carries the null's share per task
 

@@ -167,3 +167,23 @@ def test_kendall_tau_is_undefined_when_the_order_it_ranks_is_the_nulls():
     driven = summarise(judge(values, values, [], registry=DEFAULT_REGISTRY), values, registry=DEFAULT_REGISTRY,
                        orders=order, nulls={("pic", "a"): 2.9, ("pic", "b"): 1.95, ("pic", "c"): 0.9})
     assert math.isnan(driven.loc[0, "kendall_tau_o"])
+
+
+def test_what_the_more_sampling_sentences_say_of_the_histogram_nulls_holds_on_simulated_tasks():
+    # The report says: under metrics.bins=auto (B = N·M/50) B grows with N and PIC's values approach their nulls;
+    # at a held B they do not; at a held B the nulls shrink with more episodes M. A task with information (policy
+    # effect sd 0.5, episode noise sd 1), M = 20, N = 250 → 1000 → 4000, nulls of 4 permutations.
+    def excess_and_null(n, m, bins):
+        matrix = returns(n, m, 0.5, seed=n + m)
+        null = permutation_null(matrix, seed=1, repeats=4, bins=bins)["pic"].mean()
+        return pic(matrix, bins=bins).pic - null, null
+
+    auto = [excess_and_null(n, 20, auto_bins(n, 20)) for n in (250, 1000, 4000)]
+    held = [excess_and_null(n, 20, 100) for n in (250, 1000, 4000)]
+    # Margins from 4 seeds: the auto excess falls 4–25× from N = 250 to 4000; the held one ends at 1.0–2.1× where it
+    # started and 3.4–25× above the auto one.
+    assert auto[0][0] > auto[1][0] > auto[2][0] and auto[2][0] < auto[0][0] / 3  # it shrinks as B grows with N
+    assert auto[0][1] < auto[1][1] < auto[2][1]  # while the nulls grow
+    assert held[2][0] > 0.5 * held[0][0] and held[2][0] > 2 * auto[2][0]  # with B held the excess stays
+    nulls = [excess_and_null(1000, m, 100)[1] for m in (10, 40)]
+    assert nulls[1] < nulls[0] / 2  # and the nulls shrink with more episodes

@@ -85,11 +85,16 @@ class Information:
         it was estimated on); near that ceiling it cannot rank tasks.
     net_of_null : bool
         The value is already net of the null (e.g. PIC − null): its null share is not reported.
+    binned : bool
+        The estimator is the plug-in one on B histogram bins, so its value and its null move with B (and,
+        under ``metrics.bins=auto``, with N): what the report says about more sampling. Not hashed: it
+        changes no number.
     """
 
     null: str | None = None
     ceiling: bool = False
     net_of_null: bool = False
+    binned: bool = False
 
     def identity(self) -> dict:
         return {"null": self.null, "ceiling": self.ceiling, "net_of_null": self.net_of_null}
@@ -272,7 +277,7 @@ DEFAULT_REGISTRY = Registry((
     Metric("pic", "PIC", "PIC", "nats", True, "random policies", "metrics",
            compute=lambda s: s.pic.pic, bootstrapped=True, batched=True,
            draws=lambda s: s.bootstrap["pic"].to_numpy(), primary=True, quantity=_I,
-           information=Information(null="pic", ceiling=True),
+           information=Information(null="pic", ceiling=True, binned=True),
            details=(Detail("h_r", "H(R)", "nats", lambda s: s.pic.h_r),
                     Detail("h_r_given_theta", "H(R|Θ)", "nats", lambda s: s.pic.h_r_given_theta)),
            why="the paper's claim: more information between the policy parameters and the return means that the "
@@ -302,7 +307,7 @@ DEFAULT_REGISTRY = Registry((
                "follow; a task where every policy earns the same return gives no direction to improve"),
     Metric("pic_miller_madow", "PIC (Miller–Madow)", "PIC MM", "nats", True, "estimator", "diagnostics",
            compute=lambda s: s.pic_miller_madow.pic, batched=True, quantity=_I, why=_OTHER_ESTIMATOR,
-           information=Information(null="pic_miller_madow", ceiling=True)),
+           information=Information(null="pic_miller_madow", ceiling=True, binned=True)),
     Metric("pic_knn", "PIC (k-NN)", "PIC kNN", "nats", True, "estimator", "diagnostics",
            compute=lambda s: s.knn.mi, batched=True, quantity=_I, why=_OTHER_ESTIMATOR,
            information=Information(null="pic_knn"),
@@ -310,7 +315,7 @@ DEFAULT_REGISTRY = Registry((
                     Detail("knn_episodes", "k-NN episodes", "episodes", lambda s: s.knn.episodes, shown=False))),
     Metric("pic_minus_null", "PIC − null", "PIC − null", "nats", True, "estimator", "diagnostics",
            compute=lambda s: float(s.pic.pic - s.null_pic.mean()), batched=True, quantity=_I,
-           information=Information(null="pic", net_of_null=True),
+           information=Information(null="pic", net_of_null=True, binned=True),
            why=_OTHER_ESTIMATOR + " (net of its permutation null)"),
     Metric("ot_distance", "W₂ to SAC's policy", "W₂ to SAC", "pooled sd", False, BEYOND, "occupancy",
            compute=lambda s: s.mean, bootstrapped=True, batched=True,

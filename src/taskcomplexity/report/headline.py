@@ -7,6 +7,7 @@ from collections.abc import Callable
 import numpy as np
 import pandas as pd
 
+from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue, significant_int
 from taskcomplexity.report.verdict_tables import survival_tables
@@ -294,31 +295,91 @@ def survival_sentence(quantity: str, table: pd.DataFrame) -> str:
 
 
 def resolve_sentences(data: StudyData) -> list[str]:
-    """For each primary metric with relations not significant (on values with information): the N (at this M)
-    at which the Welch test would resolve them, from the verdict's estimate (the batch sd falling as N^-1/2).
-    The verdict table gives the estimate of every unresolved relation, uninformative ones included."""
+    """What more sampling would do, per primary metric.
+
+    For relations not significant (on values with information): the N (at this M) at which the Welch test
+    would resolve them, from the verdict's estimate (the batch sd falling as N^-1/2), with what the
+    projection holds (M, and B for a histogram estimator) and, for a metric checked against its nulls, that
+    the nulls move with N too; under ``metrics.bins=auto`` (B = N·M/50 here) B grows with N and the values of
+    a histogram estimator approach their nulls, so the sentence says to hold B. For relations uninformative
+    because the nulls give most of the difference: what settles them (more episodes at a held B; the
+    measure net of the nulls, with its outcomes there). The verdict table gives the estimate of every
+    unresolved relation, uninformative ones included.
+    """
     verdict, registry = data.verdict["verdict"], data.registry
+    bins, scale = _bins(data), _scale(data)
+    auto = bins is not None and scale is not None and bins == auto_bins(*scale)
     sentences = []
     for metric in (m for m in registry if m.primary):
-        rows = verdict[(verdict["metric"] == metric.name) & (verdict["outcome"] == "not significant")
-                       & np.isfinite(verdict["policies_to_resolve"])
-                       & (verdict["policies_to_resolve"] > verdict["policies"])]
-        if rows.empty:
-            continue
-        n = int(rows["policies"].max())
-        needs = sorted(rows["policies_to_resolve"])
-        span = (f"N ≈ {significant_int(needs[0])}" if len(needs) == 1 else
-                f"N ≈ {significant_int(needs[0])} to {significant_int(needs[-1])}")
-        bins = _bins(data)
-        same = "same M" + (f" and B = {bins:,}" if bins else "")
-        sentence = (f"More sampling: {plural(len(rows), 'unresolved relation')} of {metric.label} would be "
-                    f"resolved by Welch's test at {span} policies (now N = {n:,}, {same}; assuming the batches' sd "
-                    "falls as N^-1/2 and the difference stays as measured).")
-        if metric.information is not None and metric.information.null and not metric.information.net_of_null:
-            sentence += (f" That projects the test alone: {metric.label}'s permutation nulls move with N, M and B, "
-                         "so at that N the information check can still find the difference to be the nulls'.")
-        sentences.append(sentence)
+        check = metric.information
+        nulled = check is not None and bool(check.null) and not check.net_of_null
+        binned = check is not None and check.binned and bins is not None
+        mine = verdict[verdict["metric"] == metric.name]
+        rows = mine[(mine["outcome"] == "not significant") & np.isfinite(mine["policies_to_resolve"])
+                    & (mine["policies_to_resolve"] > mine["policies"])]
+        if not rows.empty:
+            n = int(rows["policies"].max())
+            needs = sorted(rows["policies_to_resolve"])
+            span = (f"N ≈ {significant_int(needs[0])}" if len(needs) == 1 else
+                    f"N ≈ {significant_int(needs[0])} to {significant_int(needs[-1])}")
+            held = f"M and B = {bins:,}" if binned else "M"
+            sentence = (f"More sampling: {plural(len(rows), 'unresolved relation')} of {metric.label} would be "
+                        f"resolved by Welch's test at {span} policies (now N = {n:,}; holding {held}, assuming the "
+                        "batches' sd falls as N^-1/2 and the difference stays as measured).")
+            if nulled:
+                sentence += (f" That projects the test alone: {metric.label}'s permutation nulls move with N too, and "
+                             "the report does not predict them there.")
+                if binned and auto:
+                    sentence += (f" Under metrics.bins=auto, B = N·M/{RETURNS_PER_BIN} grows with N and "
+                                 f"{metric.label}'s values approach their nulls: hold B (metrics.bins={bins}) to test "
+                                 "these at more N.")
+            sentences.append(sentence)
+        mostly = mine[(mine["outcome"] == "uninformative") & mine["informative_easier"].astype(bool)
+                      & mine["informative_harder"].astype(bool)]
+        if nulled and not mostly.empty:
+            sentence = _settle_sentence(metric, mostly, verdict, registry, binned=binned, auto=auto)
+            if sentence:
+                sentences.append(sentence)
     return sentences
+
+
+_OUTCOME_VERBS = {"agree": "agrees on", "contradict": "contradicts on", "not significant": "is not significant on",
+                  "uninformative": "is uninformative on", "undefined": "is undefined on"}
+
+
+def _settle_sentence(metric, mostly: pd.DataFrame, verdict: pd.DataFrame, registry, *, binned: bool,
+                     auto: bool) -> str:
+    """What settles the relations whose difference is mostly the nulls' (``mostly``: rows of ``metric``)."""
+    pairs = set(zip(mostly["easier"], mostly["harder"], strict=True))
+    where = f"the {plural(len(pairs), 'relation')} where {metric.label}'s difference is mostly the nulls'"
+    parts = []
+    if binned:
+        parts.append("the nulls shrink with more episodes M at a held B")
+    net = next((m for m in registry if m.information is not None and m.information.net_of_null
+                and m.information.null == metric.information.null), None)
+    if net is not None:
+        among = np.array([(e, h) in pairs for e, h in zip(verdict["easier"], verdict["harder"], strict=True)],
+                         dtype=bool)
+        rows = verdict[(verdict["metric"] == net.name).to_numpy() & among]
+        if not rows.empty:
+            counts = rows["outcome"].value_counts()
+            said = and_list(f"{verb} {counts[outcome]}" for outcome, verb in _OUTCOME_VERBS.items()
+                            if counts.get(outcome, 0))
+            parts.append(f"{net.label}, net of its nulls, {said} of them")
+    if not parts:
+        return ""
+    if binned and auto:
+        lead = (f"More policies at metrics.bins=auto do not settle {where} (B grows with N and the values approach "
+                "their nulls)")
+    else:
+        lead = f"On {where}"
+    return f"{lead}: " + "; ".join(parts) + "."
+
+
+def _scale(data: StudyData) -> tuple[int, int] | None:
+    """(N, M) of the study's tasks when they share one (None otherwise)."""
+    scales = {(int(p), int(e)) for p, e in zip(data.metrics["policies"], data.metrics["episodes"], strict=True)}
+    return scales.pop() if len(scales) == 1 else None
 
 
 def _bins(data: StudyData) -> int | None:
