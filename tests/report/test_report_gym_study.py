@@ -3,12 +3,17 @@ stages into a report: nothing about the paper's arms is needed."""
 
 from __future__ import annotations
 
+import re
+from contextlib import contextmanager
+
+import matplotlib as mpl
 import numpy as np
 import pandas as pd
 import pytest
 
 from taskcomplexity.metrics import DEFAULT_REGISTRY
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.report import writer
 from taskcomplexity.report.build import build_report
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
@@ -29,12 +34,35 @@ def requests(*env_ids):
             for e in env_ids]
 
 
+@contextmanager
+def drawn_figures():
+    """Every figure the report saves, by file name (the figures themselves, to read their panels)."""
+    drawn = {}
+
+    def save(figure, directory, name):
+        drawn[name] = figure
+        return save_figure(figure, directory, name)
+
+    save_figure = writer.save_figure
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(writer, "save_figure", save)
+        yield drawn
+
+
+def panel_titles(figures) -> list[str]:
+    return [ax.get_title(loc) for figure in figures.values() for ax in figure.axes for loc in ("left", "center", "right")
+            if ax.get_title(loc)]
+
+
 @pytest.fixture(scope="module")
 def pair(tmp_path_factory, run_stages):
+    """The report of the two-task study; ``found["figures"]``: the figures it drew, by file name."""
     root = tmp_path_factory.mktemp("pair")
     found = run_stages(root, PAIR, requests("CartPole-v1", "Pendulum-v1"))
-    index = build_report(found["results"], study=PAIR, verdict=found["verdict"], diagnostics=found["diagnostics"],
-                         sac_curves=None, out_dir=root / "report", title="Two gym tasks")
+    with drawn_figures() as figures:
+        index = build_report(found["results"], study=PAIR, verdict=found["verdict"], diagnostics=found["diagnostics"],
+                             sac_curves=None, out_dir=root / "report", title="Two gym tasks")
+    found["figures"] = figures
     return index, found
 
 
@@ -65,8 +93,41 @@ def test_a_task_colour_from_the_study_reaches_the_figures(pair):
     from taskcomplexity.report.labels import task_styles
 
     assert task_styles(PAIR)["cart"].colour == "#ff8800"
-    index, _ = pair
-    assert (index.parent / "figures" / "score_scatter.png").stat().st_size > 1000
+    index, found = pair
+    assert (index.parent / "figures" / "rwg_trios.png").stat().st_size > 1000
+    trio = found["figures"]["rwg_trios"]
+    rows = [ax for ax in trio.axes if ax.get_title(loc="left")]  # each task's histogram, its name on the left
+    assert [ax.get_title(loc="left") for ax in rows] == ["Cart-pole", "Pendulum"]
+    assert mpl.colors.to_hex(rows[0].patches[0].get_facecolor()) == "#ff8800"
+
+
+SCATTER_LEFT_OUT = ("The figure of the normalised score score_R against every metric is left out: this report "
+                    "compares 2 tasks, and a correlation needs at least 3.")
+
+
+def test_with_two_tasks_the_correlation_figure_is_left_out_with_one_line_saying_why(pair):
+    index, found = pair
+    figures = found["figures"]
+    assert list(figures) == ["rwg_trios", "bootstrap", "diagnostics_bins", "diagnostics_null"]
+    assert not any("n/a" in title for title in panel_titles(figures))  # was 8 panels titled "r = n/a"
+    assert not any(ax.texts for figure in figures.values() for ax in figure.axes)  # no placeholder panel text
+    assert not list((index.parent / "figures").glob("score_scatter.*"))
+    markdown = (index.parent / "report.md").read_text(encoding="utf-8")
+    assert markdown.count(SCATTER_LEFT_OUT) == 1
+    # where the figure would be: after the bootstrap figure, before the random-policy statistics table
+    assert markdown.index("Bootstrap distributions of") < markdown.index(SCATTER_LEFT_OUT) < markdown.index(
+        "Random-policy statistics.")
+    page = parse_text(index)
+    assert SCATTER_LEFT_OUT in page
+    # the figures drawn keep consecutive numbers in page order: the line takes none
+    assert [int(n) for n in re.findall(r"Figure (\d+)\. ", page)] == [1, 2, 3, 4]
+    assert "**Figure 3. PIC depends on the estimator's settings.**" in markdown
+
+
+def parse_text(index) -> str:
+    import html as html_lib
+
+    return html_lib.unescape(re.sub(r"<[^>]+>", " ", index.read_text(encoding="utf-8")))
 
 
 def test_a_study_without_relations_shows_its_metrics_and_says_there_is_nothing_to_judge(tmp_path, run_stages):
@@ -108,8 +169,15 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
     x = [references.loc[(t, "score_a"), "value"] for t in ("cart", "pend", "car")]
     assert pic["pearson_r"] == pytest.approx(float(np.corrcoef(x, values)[0, 1]))
 
-    index = build_report(found["results"], study=scored_study, verdict=found["verdict"], diagnostics=None,
-                         sac_curves=None, out_dir=tmp_path / "report", title="Scored")
+    with drawn_figures() as figures:
+        index = build_report(found["results"], study=scored_study, verdict=found["verdict"], diagnostics=None,
+                             sac_curves=None, out_dir=tmp_path / "report", title="Scored")
+    # three tasks: both correlation figures are drawn, every panel with its r (none left out)
+    assert {"reference_scatter", "score_scatter"} <= set(figures)
+    titles = [t for name in ("reference_scatter", "score_scatter") for t in panel_titles({name: figures[name]})]
+    assert len(titles) >= 16 and all(re.fullmatch(r"r = -?\d\.\d\d, p = \S+", t) for t in titles), titles
+    assert (index.parent / "figures" / "score_scatter.png").stat().st_size > 1000
+    assert "is left out" not in index.read_text(encoding="utf-8")
     tables = index.parent / "tables"
     table = pd.read_csv(tables / "reference_scores.csv")
     assert list(table.columns[-2:]) == ["Score(A)", "Score(R)"] and {"H(O)", "H(R|Θ)"} <= set(table.columns)
@@ -145,4 +213,4 @@ def test_counts_outside_the_headline_read_right_with_one_relation(pair):
     assert "PIC and POIC leave the one known relation open" in body or "PIC and POIC leave no known relation open" in body
     assert not re.search(r"\b1 (known |complexity |[a-z]+ )?(relations|tasks|policies|episodes|cells)\b", body)
     assert not re.search(r"\b[01] of (the )?1\b", body)
-    assert "across 2 tasks" in body
+    assert "this report compares 2 tasks" in body

@@ -16,9 +16,9 @@ from taskcomplexity.metrics.registry import BEYOND
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import MISSING, and_list, mean_sd, of_total
-from taskcomplexity.report.html import Paragraph, Section
+from taskcomplexity.report.html import FigureBlock, Paragraph, Section
 from taskcomplexity.report.methods import direction
-from taskcomplexity.report.writer import Writer
+from taskcomplexity.report.writer import Writer, left_out, panels_left_out
 from taskcomplexity.verdict import by_relation
 
 NOT_RUN = "its stage did not run"
@@ -157,11 +157,22 @@ def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataF
                                    "Outcome of Welch's test on each known relation (agree, contradict, not "
                                    "significant; empty: not computed)."))
     if paths:
-        blocks.append(writer.figure(
-            [(fig.learning_path_figure({t: paths[t] for t in data.tasks if t in paths},
-                                       {t: data.styles[t] for t in data.tasks if t in paths}), "learning_path")],
-            "PIC and POIC along SAC's learning path.",
-            "At each snapshot of the trained SAC actor θ_k (step 0 and every checkpoint), the histogram PIC and "
-            "POIC of policies θ_k + σε (ε ~ N(0, I) over every actor parameter), each run for M episodes on the "
-            "task's RWG backend; dotted: the mean over the path, the learning-path metric."))
+        blocks.append(learning_path_block(writer, data, paths))
     return Section("Beyond the paper: the metrics its conclusion proposes", tuple(blocks))
+
+
+def learning_path_block(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataFrame]) -> FigureBlock | Paragraph:
+    """PIC and POIC along SAC's learning path (the panels with a finite value), or the line saying why not."""
+    shown = {t: paths[t] for t in data.tasks if t in paths}
+    drawn = fig.drawn_paths(shown)
+    empty = [label for column, label in fig.PATH_PANELS if (column, label) not in drawn]
+    why = "no task's learning path has a finite value"
+    if not drawn:
+        return left_out("the figure of PIC and POIC along SAC's learning path", f"{why} of {and_list(empty)}")
+    return writer.figure(
+        [(fig.learning_path_figure(shown, {t: data.styles[t] for t in shown}), "learning_path")],
+        f"{' and '.join(label for _, label in drawn)} along SAC's learning path.",
+        "At each snapshot of the trained SAC actor θ_k (step 0 and every checkpoint), the histogram PIC and "
+        "POIC of policies θ_k + σε (ε ~ N(0, I) over every actor parameter), each run for M episodes on the "
+        "task's RWG backend; dotted: the mean over the path, the learning-path metric."
+        + panels_left_out({why: empty}))

@@ -6,12 +6,17 @@ are drawn with their study styles (:func:`taskcomplexity.report.labels.task_styl
 task in every figure, one marker per study group, names from the study's labels, study order.
 
 Units: returns are "return (sum of rewards)", entropies and mutual informations "nats".
+
+A figure draws only the panels with something to show (a Pearson r, a finite value, a curve); with none it
+raises ValueError, and the report puts one line saying why in its place
+(:func:`taskcomplexity.report.writer.left_out`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib as mpl
@@ -254,6 +259,60 @@ def pearson(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return correlation(scipy.stats.pearsonr, x[keep], y[keep])
 
 
+MIN_CORRELATED = 3
+"""Tasks a correlation needs: with fewer finite pairs, Pearson's r is undefined (:func:`pearson`)."""
+
+
+def correlation_gap(x: np.ndarray, y: np.ndarray) -> tuple[str, int] | None:
+    """Why :func:`pearson` of ``x`` and ``y`` is undefined (None: it is defined), with the count of finite pairs.
+
+    ``("tasks", k)``: only k < :data:`MIN_CORRELATED` pairs are finite; ``("x", k)`` or ``("y", k)``: that
+    side is the same on all k finite pairs.
+    """
+    keep = np.isfinite(x) & np.isfinite(y)
+    pairs = int(keep.sum())
+    if pairs < MIN_CORRELATED:
+        return "tasks", pairs
+    for side, values in (("x", x), ("y", y)):
+        if np.ptp(values[keep]) == 0:
+            return side, pairs
+    return None
+
+
+@dataclass(frozen=True)
+class Correlated:
+    """Which panels of :func:`score_scatter_figure` have a Pearson r.
+
+    Attributes
+    ----------
+    shown : list of (column, axis label)
+        The panels with an r, in order.
+    pairs : dict of column to int
+        Tasks with both values finite, per panel (shown or not).
+    gaps : dict of column to (str, int)
+        Why each other panel has no r (:func:`correlation_gap`).
+    """
+
+    shown: list[tuple[str, str]]
+    pairs: dict[str, int]
+    gaps: dict[str, tuple[str, int]]
+
+
+def correlated_panels(metrics: pd.DataFrame, y: str, panels: Sequence[tuple[str, str]]) -> Correlated:
+    """The panels of ``metrics`` (one row per task) whose column has a Pearson r with column ``y``."""
+    target = metrics[y].to_numpy(dtype=float)
+    shown, pairs, gaps = [], {}, {}
+    for column, label in panels:
+        values = metrics[column].to_numpy(dtype=float)
+        pairs[column] = int((np.isfinite(values) & np.isfinite(target)).sum())
+        gap = correlation_gap(values, target)
+        if gap is None:
+            shown.append((column, label))
+        else:
+            gaps[column] = gap
+    return Correlated(shown, pairs, gaps)
+
+
 def score_scatter_figure(
     metrics: pd.DataFrame,
     styles: Mapping[str, TaskStyle],
@@ -272,12 +331,23 @@ def score_scatter_figure(
     y : (column, axis label)
         The score on the vertical axes (e.g. the normalised score score_R).
     panels : sequence of (column, axis label)
-        One panel per metric, in order; a legend of the tasks fills the next free panel.
+        One panel per metric, in order; a legend of the tasks fills the next free panel. A panel without a
+        Pearson r (:func:`correlated_panels`: fewer than 3 tasks with both values, or a side the same on all of
+        them) is left out; a title ends in "(n = k)" when only k of the tasks have both values.
+
+    Raises
+    ------
+    ValueError
+        When no panel has a Pearson r: there is nothing to show.
     """
+    chosen = metrics[metrics["task"].isin(list(styles))]
+    correlated = correlated_panels(chosen, y[0], panels)
+    if not correlated.shown:
+        raise ValueError(f"no panel has a Pearson r with {y[0]} across {len(chosen)} tasks: nothing to show")
+    panels = correlated.shown
     columns = 4
     legend_panel = len(panels) % columns != 0  # a free panel holds the legend, else it goes below
     rows = max(1, -(-len(panels) // columns))
-    chosen = metrics[metrics["task"].isin(list(styles))]
     with paper_style():
         figure, axes = _figure(rows, columns, 1.95 * rows + (0 if legend_panel else 0.6), sharey=True)
         for ax, (column, axis_label) in zip(axes.flat, panels, strict=False):
@@ -286,7 +356,8 @@ def score_scatter_figure(
                 ax.scatter(row[column], row[y[0]], color=style.colour, s=28, marker=style.marker,
                            edgecolors="black", linewidths=0.4, zorder=3)
             r, p = pearson(chosen[column].to_numpy(dtype=float), chosen[y[0]].to_numpy(dtype=float))
-            ax.set_title("r = n/a" if not np.isfinite(r) else f"r = {r:.2f}, p = {p:.2g}")
+            pairs = correlated.pairs[column]
+            ax.set_title(f"r = {r:.2f}, p = {p:.2g}" + (f" (n = {pairs})" if pairs < len(chosen) else ""))
             ax.set_xlabel(axis_label.replace(" (", "\n(") if len(axis_label) > 22 else axis_label)
             ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=4))
             ax.margins(0.12)
@@ -309,6 +380,13 @@ def score_scatter_figure(
 # (c) Bootstrap distributions ------------------------------------------------------------------
 
 
+def drawn_draws(draws: Mapping[str, pd.DataFrame], metrics: Sequence[tuple[str, str]]) -> list[tuple[str, str]]:
+    """The metrics of ``metrics`` with a finite bootstrap draw on some task (the panels of :func:`bootstrap_figure`)."""
+    return [(metric, label) for metric, label in metrics
+            if any(metric in table and np.isfinite(table[metric].to_numpy(dtype=float)).any()
+                   for table in draws.values())]
+
+
 def bootstrap_figure(
     draws: Mapping[str, pd.DataFrame],
     points: pd.DataFrame,
@@ -327,11 +405,19 @@ def bootstrap_figure(
     styles : mapping of task id to TaskStyle
         Names and colours, in study order.
     metrics : sequence of (column, axis label)
-        One panel per metric.
+        One panel per metric with a finite draw on some task (:func:`drawn_draws`); the others are left out.
+
+    Raises
+    ------
+    ValueError
+        When no metric has a finite draw: there is nothing to show.
     """
     tasks = [t for t in styles if t in draws]
+    metrics = drawn_draws({t: draws[t] for t in tasks}, metrics)
+    if not metrics:
+        raise ValueError("no bootstrapped metric has a finite draw on any task: nothing to show")
     names = [m for m, _ in metrics]
-    tidy = pd.concat([draws[t][names].assign(task=styles[t].name) for t in tasks], ignore_index=True)
+    tidy = pd.concat([draws[t].reindex(columns=names).assign(task=styles[t].name) for t in tasks], ignore_index=True)
     colours = {styles[t].name: styles[t].colour for t in tasks}
     indexed = points.set_index("task")
     with paper_style():
@@ -374,15 +460,35 @@ def seed_band(values: pd.DataFrame, column: str) -> pd.DataFrame:
     return table.assign(low=table["mean"] - half, high=table["mean"] + half).reset_index()
 
 
+def drawable_curves(curves: pd.DataFrame) -> pd.DataFrame:
+    """The evaluations :func:`sac_curves_figure` can draw: a finite return, after step 0 (the axis is log)."""
+    returns = curves["eval/return_mean"].to_numpy(dtype=float)
+    return curves[np.isfinite(returns) & (curves["env_step"].to_numpy() > 0)]
+
+
+def sac_groups(curves: pd.DataFrame, styles: Mapping[str, TaskStyle]) -> list[str | None]:
+    """The study groups (None: a study without groups) with a curve to draw, in study order."""
+    drawn = set(drawable_curves(curves)["task"])
+    return list(dict.fromkeys(s.group for t, s in styles.items() if t in drawn))
+
+
 def sac_curves_figure(curves: pd.DataFrame, styles: Mapping[str, TaskStyle]) -> Figure:
     """Figure (d): SAC evaluation return against env steps, one panel per study group, log x.
 
     Lines are the mean across seeds of ``eval/return_mean``; bands are the 95 % t-interval of that
     mean (seeds ≥ 2). Evaluations at step 0 cannot be drawn on a log axis and are left out. Solid
-    lines are SAC, dashed SAC + HER. A study without groups gets one panel.
+    lines are SAC, dashed SAC + HER. A study without groups gets one panel; a group none of whose tasks
+    has a curve to draw (:func:`drawable_curves`) gets none.
+
+    Raises
+    ------
+    ValueError
+        When no task has a curve to draw: there is nothing to show.
     """
-    table = curves[curves["eval/return_mean"].notna() & (curves["env_step"] > 0)]
-    groups = list(dict.fromkeys(s.group for s in styles.values()))
+    table = drawable_curves(curves)
+    groups = sac_groups(curves, styles)
+    if not groups:
+        raise ValueError("no SAC evaluation after step 0 has a finite return: nothing to show")
     with paper_style():
         tasks_per_panel = max(sum(1 for s in styles.values() if s.group == g) for g in groups)
         figure, axes = _figure(1, len(groups), 2.8 + 0.14 * tasks_per_panel)  # legend rows: ≤ 2 variants, 2 columns
@@ -409,20 +515,38 @@ def sac_curves_figure(curves: pd.DataFrame, styles: Mapping[str, TaskStyle]) -> 
             ax.set_ylabel(f"evaluation {RETURN_LABEL}")
             if drawn:  # below the panel, under its axis label: never over the curves
                 ax.legend(frameon=False, loc="upper center", bbox_to_anchor=(0.5, LEGEND_BELOW), ncol=2)
-            else:
-                ax.text(0.5, 0.5, "no SAC runs", transform=ax.transAxes, ha="center", va="center")
     return figure
+
+
+PATH_PANELS = (("pic", "PIC"), ("poic", "POIC"))
+"""The panels of :func:`learning_path_figure`: (column of ``path.parquet``, label)."""
+
+
+def drawn_paths(paths: Mapping[str, pd.DataFrame]) -> list[tuple[str, str]]:
+    """The panels of :data:`PATH_PANELS` with a finite value on some task's path."""
+    return [(column, label) for column, label in PATH_PANELS
+            if any(column in path and np.isfinite(path[column].to_numpy(dtype=float)).any()
+                   for path in paths.values())]
 
 
 def learning_path_figure(paths: Mapping[str, pd.DataFrame], styles: Mapping[str, TaskStyle]) -> Figure:
     """PIC_k and POIC_k around SAC's actor snapshots against the snapshot's env steps, one line per task.
 
     ``paths``: task id → ``path.parquet`` of its learning-path artefact (``step``, ``pic``, ``poic``).
-    Left panel PIC_k, right panel POIC_k (nats); the dotted line is each task's path mean, the metric.
+    Left panel PIC_k, right panel POIC_k (nats); the dotted line is each task's path mean, the metric. A
+    panel without a finite value on any path (:func:`drawn_paths`) is left out.
+
+    Raises
+    ------
+    ValueError
+        When neither panel has a finite value: there is nothing to show.
     """
+    panels = drawn_paths(paths)
+    if not panels:
+        raise ValueError("no learning path has a finite PIC or POIC: nothing to show")
     with paper_style():
-        figure, axes = _figure(1, 2, 3.3)
-        for ax, column, label in zip(axes[0], ("pic", "poic"), ("PIC", "POIC"), strict=True):
+        figure, axes = _figure(1, len(panels), 3.3)
+        for ax, (column, label) in zip(axes[0], panels, strict=True):
             for task, path in paths.items():
                 style = styles[task]
                 ax.plot(path["step"], path[column], marker=style.marker, markersize=3, color=style.colour,
@@ -486,14 +610,29 @@ def bins_sweep_figure(
     return figure
 
 
+def null_estimators(nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.DataFrame]) -> dict[str, bool]:
+    """Every estimator the diagnostics ran a null of (in the order of the summaries), and whether it has a finite
+    observed value or null draw on some task: the panels of :func:`null_figure`."""
+    estimators = dict.fromkeys(m for summary in summaries.values() for m in summary["metric"])
+    for metric in estimators:
+        finite = False
+        for task, summary in summaries.items():
+            observed = summary.loc[summary["metric"] == metric, "observed"].to_numpy(dtype=float)
+            draws = nulls[task][metric].to_numpy(dtype=float) if metric in nulls.get(task, {}) else np.array([])
+            finite = finite or bool(np.isfinite(observed).any() or np.isfinite(draws).any())
+        estimators[metric] = finite
+    return estimators
+
+
 def null_figure(
     nulls: Mapping[str, pd.DataFrame], summaries: Mapping[str, pd.DataFrame], styles: Mapping[str, TaskStyle],
     labels: Mapping[str, str] | None = None,
 ) -> Figure:
     """Figure (e2): each estimator's observed value on each task against its permutation null.
 
-    One panel per estimator the diagnostics stage ran a null of (two per row); the observed value is an
-    open ring, so that a null lying on top of it stays visible.
+    One panel per estimator the diagnostics stage ran a null of (two per row) with a finite value on some task
+    (:func:`null_estimators`); the observed value is an open ring, so that a null lying on top of it stays
+    visible.
 
     Parameters
     ----------
@@ -505,25 +644,37 @@ def null_figure(
         Names and colours, in study order.
     labels : mapping of estimator name to its display name, optional
         Axis labels (the name itself when absent).
+
+    Raises
+    ------
+    ValueError
+        When no estimator has a finite value on any task: there is nothing to show.
     """
     labels = labels or {}
     tasks = [t for t in styles if t in nulls]
-    metrics = list(summaries[tasks[0]]["metric"])  # the estimators the diagnostics stage ran a null of
+    found = null_estimators({t: nulls[t] for t in tasks}, {t: summaries[t] for t in tasks})
+    metrics = [m for m, finite in found.items() if finite]
+    if not metrics:
+        raise ValueError("no estimator has a finite observed value or null draw on any task: nothing to show")
     columns = min(2, len(metrics))
     rows = -(-len(metrics) // columns)
     with paper_style():
         figure, axes = _figure(rows, columns, rows * (0.32 * len(tasks) + 1.0), sharey=True)
         for ax, metric in zip(axes.flat, metrics, strict=False):
+            first = True  # the first task drawn in the panel names the legend's entries
             for position, task in enumerate(tasks):
+                if metric not in nulls[task] or not (summaries[task]["metric"] == metric).any():
+                    continue
                 draws = nulls[task][metric].to_numpy()
                 row = summaries[task].set_index("metric").loc[metric]
                 ax.scatter(draws, np.full(draws.size, position), s=8, color="0.6", marker="|", linewidths=0.8,
-                           label="permutation null" if position == 0 else None, zorder=2)
+                           label="permutation null" if first else None, zorder=2)
                 ax.errorbar(row["null_mean"], position, xerr=row["null_sd"], color="0.3", capsize=2,
                             linewidth=0.8, marker="s", markersize=3,
-                            label="null mean ± sd" if position == 0 else None, zorder=3)
+                            label="null mean ± sd" if first else None, zorder=3)
                 ax.scatter(row["observed"], position, s=60, facecolors="none", edgecolors=styles[task].colour,
-                           linewidths=1.6, label="observed" if position == 0 else None, zorder=4)
+                           linewidths=1.6, label="observed" if first else None, zorder=4)
+                first = False
             ax.set_xlabel(f"{labels.get(metric, metric)} (nats)")
             ax.xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=5))
             ax.grid(axis="x", linewidth=0.3, alpha=0.5)
@@ -557,7 +708,14 @@ def ablation_figure(variants: Mapping[str, object], *, title: str = "") -> Figur
         shown as a fraction of N.
     title : str
         Figure title (e.g. the task).
+
+    Raises
+    ------
+    ValueError
+        Without a variant: there is nothing to show.
     """
+    if not variants:
+        raise ValueError("the ablation has no variant: nothing to show")
     colours = sns.color_palette("colorblind", max(len(variants), 1)).as_hex()
     with paper_style():
         figure, axes = _figure(1, 3, 2.5)

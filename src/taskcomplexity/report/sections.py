@@ -9,8 +9,8 @@ import pandas as pd
 
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData, return_matrix
-from taskcomplexity.report.format import joined, num, plural, slug
-from taskcomplexity.report.html import Paragraph, Section, TableBlock
+from taskcomplexity.report.format import and_list, joined, num, of_total, plural, slug
+from taskcomplexity.report.html import FigureBlock, Paragraph, Section, TableBlock
 from taskcomplexity.report.outcomes import legend as outcome_legend
 from taskcomplexity.report.sac_summary import format_sac_summary
 from taskcomplexity.report.tables import (
@@ -32,7 +32,7 @@ from taskcomplexity.report.verdict_tables import (
     verdict_display,
     verdict_matrix,
 )
-from taskcomplexity.report.writer import Writer
+from taskcomplexity.report.writer import Writer, left_out, panels_left_out
 from taskcomplexity.verdict.references import reference_label
 
 SCORE = "score"
@@ -41,6 +41,52 @@ SCORE = "score"
 
 def _axis(label: str, unit: str) -> str:
     return f"{label} ({unit})" if unit else label
+
+
+def _uncorrelated(side: str, pairs: int, tasks: int, named: str) -> str:
+    """Why a panel of the score scatter has no Pearson r (:func:`~taskcomplexity.report.figures.correlation_gap`),
+    said of its metric."""
+    if side == "tasks":
+        return (f"finite together with {named} on {of_total(pairs, tasks, 'task')}"
+                + (f"; a correlation needs {fig.MIN_CORRELATED}" if pairs else ""))
+    where = "every task" if pairs == tasks else f"each of the {pairs} tasks where both are finite"
+    return f"the same on {where}" if side == "x" else f"{named} is the same on {where}"
+
+
+def scatter_block(writer: Writer, table: pd.DataFrame, styles, *, y: tuple[str, str], named: str,
+                  panels: list[tuple[str, str]], file: str, title: str, what: str, caption: str,
+                  after: str = "") -> FigureBlock | Paragraph:
+    """The score scatter of ``table`` (one row per task) against ``y``, or the line saying why it is left out.
+
+    A panel whose metric has no Pearson r with ``y`` is dropped and named in the caption; without any panel
+    left, the figure is left out. ``named``: ``y`` in a sentence; ``what``: the figure in a sentence; the
+    caption is ``caption`` + " across N tasks" + ``after``.
+    """
+    n, target = len(table), table[y[0]].to_numpy(dtype=float)
+    correlated = fig.correlated_panels(table, y[0], panels)
+    gaps: dict[str, list[str]] = {}
+    for column, label in panels:
+        if column in correlated.gaps:
+            gaps.setdefault(_uncorrelated(*correlated.gaps[column], n, named), []).append(label)
+    if not correlated.shown:
+        finite = int(np.isfinite(target).sum())
+        if n < fig.MIN_CORRELATED:
+            why = f"this report compares {plural(n, 'task')}, and a correlation needs at least {fig.MIN_CORRELATED}"
+        elif finite < fig.MIN_CORRELATED:
+            why = (f"{named} is finite on {of_total(finite, n, 'task')}, and a correlation needs at least "
+                   f"{fig.MIN_CORRELATED}")
+        elif np.ptp(target[np.isfinite(target)]) == 0:
+            where = "every task" if finite == n else f"each of the {finite} tasks where it is finite"
+            why = f"{named} is the same on {where}, so there is nothing to correlate"
+        else:
+            why = f"no metric has a correlation with {named}: " + "; ".join(
+                f"{and_list(labels)} ({reason})" for reason, labels in gaps.items())
+        return left_out(what, why)
+    fewer = any(correlated.pairs[c] < n for c, _ in correlated.shown)
+    across = f" across {plural(n, 'task')}" + (
+        " (a title ending in (n = k): across only the k tasks where both values are finite)" if fewer else "")
+    return writer.figure([(fig.score_scatter_figure(table, styles, y=y, panels=panels), file)], title,
+                         caption + across + after + panels_left_out(gaps))
 
 
 def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
@@ -73,14 +119,15 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
             "tasks only |r| near 1 is evidence."))
         first = references["reference"].iloc[0]
         scored = data.metrics.merge(references[references["reference"] == first][["task", "value"]]
-                                    .rename(columns={"value": first}), on="task")
-        blocks.append(writer.figure(
-            [(fig.score_scatter_figure(scored, data.styles, y=(first, reference_label(first)),
-                                       panels=metric_panels(data, exclude=())), "reference_scatter")],
-            f"{reference_label(first)} against every metric.",
-            f"Each point is a task; panel titles give Pearson's r and its p-value across {plural(len(scored), 'task')} "
-            "on the metric's value as it is (the table above uses its easiness, which differs in sign only for a "
-            "metric where lower is easier)."))
+                                    .rename(columns={"value": first}), on="task", how="left")
+        named = reference_label(first)
+        blocks.append(scatter_block(
+            writer, scored, data.styles, y=(first, named), named=named, panels=metric_panels(data, exclude=()),
+            file="reference_scatter", title=f"{named} against every metric.",
+            what=f"the figure of {named} against every metric",
+            caption="Each point is a task; panel titles give Pearson's r and its p-value",
+            after=" on the metric's value as it is (the table above uses its easiness, which differs in sign only "
+                  "for a metric where lower is easier)."))
     return tuple(blocks)
 
 
@@ -153,15 +200,7 @@ def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
             writer.table(interval_table(data), "bootstrap_intervals", "Bootstrap intervals.",
                          "Point estimate on the whole sample and percentile 95 % interval of the bootstrap, and "
                          "the POIC temperature λ* (flagged when on a boundary of the search range)."),
-            writer.figure(
-                [(fig.bootstrap_figure(data.bootstrap, data.metrics, data.styles,
-                                       [(m.name, _axis(m.label, m.unit)) for m in bootstrapped]), "bootstrap")],
-                f"Bootstrap distributions of {names}.",
-                "Violins: the bootstrap draws of each task (resampling policies); black diamond: the point "
-                "estimate; black bar: the percentile 95 % interval. Overlapping violins are pairs the data cannot "
-                "order. A point estimate outside its own violin is the histogram estimator's bias at work: a "
-                "resample repeats policies, which removes distinct returns and lowers H(R).",
-            ),
+            bootstrap_block(writer, data, bootstrapped),
         ]
     welch = data.verdict["welch"]
     for metric in [m for m in registry if m.primary and (welch["metric"] == m.name).any()]:
@@ -175,20 +214,38 @@ def rwg_section(writer: Writer, data: StudyData, *, alpha: float) -> Section:
         ))
         writer.data(tests, f"welch_{metric.name}_tidy")
     if SCORE in registry and len(data.tasks) >= 1:
-        score = registry[SCORE]
-        panels = metric_panels(data, exclude=(SCORE,))
-        blocks.append(writer.figure(
-            [(fig.score_scatter_figure(data.metrics, data.styles, y=(SCORE, f"normalised score {score.label}"),
-                                       panels=panels), "score_scatter")],
-            "Normalised score against every metric.",
-            "Each point is a task (marker: its study group). Panel titles give Pearson's r and its p-value "
-            f"across {plural(len(data.tasks), 'task')}; with so few points only strong correlations are meaningful.",
-        ))
+        named = f"the normalised score {registry[SCORE].label}"
+        blocks.append(scatter_block(
+            writer, data.metrics, data.styles, y=(SCORE, named[4:]), named=named,
+            panels=metric_panels(data, exclude=(SCORE,)), file="score_scatter",
+            title="Normalised score against every metric.", what=f"the figure of {named} against every metric",
+            caption="Each point is a task (marker: its study group). Panel titles give Pearson's r and its p-value",
+            after="; with so few points only strong correlations are meaningful."))
     blocks.append(writer.table(statistics_table(data), "rwg_statistics", "Random-policy statistics.",
                                "Worst policy mean r_min, best return r_max (sum of rewards), the metrics of the "
                                "metrics stage without a bootstrap, and the entropies behind the bootstrapped "
                                "ones (nats)."))
     return Section("Random policies: the metrics of random-weight guessing", tuple(blocks))
+
+
+def bootstrap_block(writer: Writer, data: StudyData, bootstrapped) -> FigureBlock | Paragraph:
+    """The bootstrap violins of the metrics with a finite draw, or the line saying why there are none."""
+    names = joined(m.label for m in bootstrapped)
+    panels = [(m.name, _axis(m.label, m.unit)) for m in bootstrapped]
+    drawn = {name for name, _ in fig.drawn_draws(data.bootstrap, panels)}
+    empty = [m.label for m in bootstrapped if m.name not in drawn]
+    if not drawn:
+        return left_out(f"the figure of the bootstrap distributions of {names}",
+                        f"no task has a finite bootstrap draw of {and_list(empty)}")
+    return writer.figure(
+        [(fig.bootstrap_figure(data.bootstrap, data.metrics, data.styles, panels), "bootstrap")],
+        f"Bootstrap distributions of {joined(m.label for m in bootstrapped if m.name in drawn)}.",
+        "Violins: the bootstrap draws of each task (resampling policies); black diamond: the point "
+        "estimate; black bar: the percentile 95 % interval. Overlapping violins are pairs the data cannot "
+        "order. A point estimate outside its own violin is the histogram estimator's bias at work: a "
+        "resample repeats policies, which removes distinct returns and lowers H(R)."
+        + panels_left_out({"no task has a finite bootstrap draw": empty}),
+    )
 
 
 def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None) -> Section:
@@ -211,16 +268,8 @@ def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None
     note = ()
     if command and missing:
         note = (Paragraph(f"Curves of {', '.join(data.name(t) for t in missing)} are not in the cache yet. " + how),)
-    seeds = int(data.sac_per_seed.groupby(["task", "variant"]).size().max())
-    grouped = "one panel per study group; " if any(s.group for s in data.styles.values()) else ""
     return Section(title, (
-        writer.figure(
-            [(fig.sac_curves_figure(sac_curves, data.styles), "sac_curves")], "SAC learning curves.",
-            f"Mean evaluation return across seeds (up to {seeds}) against environment steps on a log axis, "
-            f"{grouped}the band is the 95 % t-interval of the mean across seeds (absent with one seed). Solid: "
-            "SAC; dashed: SAC + HER. Evaluations at step 0 are not drawn on the log axis. An easier task rises "
-            "earlier and higher.",
-        ),
+        sac_curves_block(writer, data, sac_curves),
         writer.table(
             format_sac_summary(data), "sac_summary", "SAC summary.",
             "Mean ± sd across seeds of the final return (mean of the last 5 evaluations, sum of rewards), the "
@@ -230,6 +279,39 @@ def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None
         ),
         *note,
     ))
+
+
+def _no_curve(curves: pd.DataFrame, tasks: list[str], whose: str) -> str:
+    """Why ``tasks`` have no SAC curve to draw (:func:`~taskcomplexity.report.figures.drawable_curves`)."""
+    runs = curves[curves["task"].isin(tasks)]
+    if runs.empty:
+        return f"no SAC run of {whose} is in the curves"
+    if not np.isfinite(runs["eval/return_mean"].to_numpy(dtype=float)).any():
+        return f"no SAC evaluation of {whose} has a finite return"
+    return (f"every SAC evaluation of {whose} with a finite return is at step 0, which the log axis of environment "
+            "steps cannot show")
+
+
+def sac_curves_block(writer: Writer, data: StudyData, sac_curves: pd.DataFrame) -> FigureBlock | Paragraph:
+    """The SAC learning curves (one panel per study group with a curve), or the line saying why there are none."""
+    groups = list(dict.fromkeys(s.group for s in data.styles.values()))
+    drawn = fig.sac_groups(sac_curves, data.styles)
+    if not drawn:
+        return left_out("the figure of the SAC learning curves", _no_curve(sac_curves, data.tasks, "the study's tasks"))
+    gaps: dict[str, list[str]] = {}
+    for group in (g for g in groups if g not in drawn):
+        members = [t for t, s in data.styles.items() if s.group == group]
+        gaps.setdefault(_no_curve(sac_curves, members, "its tasks"), []).append(
+            f"the {group} group" if group is not None else "the tasks without a group")
+    seeds = int(data.sac_per_seed.groupby(["task", "variant"]).size().max())
+    grouped = "one panel per study group; " if any(s.group for s in data.styles.values()) else ""
+    return writer.figure(
+        [(fig.sac_curves_figure(sac_curves, data.styles), "sac_curves")], "SAC learning curves.",
+        f"Mean evaluation return across seeds (up to {seeds}) against environment steps on a log axis, "
+        f"{grouped}the band is the 95 % t-interval of the mean across seeds (absent with one seed). Solid: "
+        "SAC; dashed: SAC + HER. Evaluations at step 0 are not drawn on the log axis. An easier task rises "
+        "earlier and higher." + panels_left_out(gaps),
+    )
 
 
 def table1_caveats(data: StudyData, bootstrapped) -> str:
@@ -286,15 +368,7 @@ def diagnostics_section(writer: Writer, data: StudyData) -> Section:
             "episodes. A trustworthy estimate would be flat; a curve that keeps rising with B or N reflects "
             "bin occupancy rather than information.",
         ),
-        writer.figure(
-            [(fig.null_figure({t: d[t]["null"] for t in tasks}, {t: d[t]["null_summary"] for t in tasks}, styles,
-                              {m.name: m.label for m in data.registry}),
-              "diagnostics_null")],
-            "Every estimator of I(Θ; R), and POIC, against its permutation null.",
-            "Grey ticks: the estimator on returns shuffled across policies (true MI = 0); grey square and bar: "
-            "their mean ± sd; coloured ring: the observed value. Only the distance between the ring and the null "
-            "is evidence of information about the policy.",
-        ),
+        null_block(writer, data, tasks),
         writer.table(diagnostics_display(data), "diagnostics_estimators", "Estimators of I(Θ; R).",
                      "Histogram PIC and its permutation null (mean ± sd); the other registered estimators "
                      + (f"(the k-nearest-neighbour one on {knn} per task)" if knn else "")
@@ -315,12 +389,37 @@ def diagnostics_section(writer: Writer, data: StudyData) -> Section:
     return Section(title, tuple(blocks))
 
 
+def null_block(writer: Writer, data: StudyData, tasks: list[str]) -> FigureBlock | Paragraph:
+    """Every estimator with a finite value against its permutation null, or the line saying why there is none."""
+    d, labels = data.diagnostics, {m.name: m.label for m in data.registry}
+    nulls, summaries = {t: d[t]["null"] for t in tasks}, {t: d[t]["null_summary"] for t in tasks}
+    found = fig.null_estimators(nulls, summaries)
+    empty = [labels.get(m, m) for m, finite in found.items() if not finite]
+    what = "the figure of every estimator of I(Θ; R), and POIC, against its permutation null"
+    if not found:
+        return left_out(what, "the diagnostics artefacts hold no permutation null of any estimator")
+    if len(empty) == len(found):
+        return left_out(what, f"no task has a finite observed value or null draw of {and_list(empty)}")
+    return writer.figure(
+        [(fig.null_figure(nulls, summaries, {t: data.styles[t] for t in tasks}, labels), "diagnostics_null")],
+        "Every estimator of I(Θ; R), and POIC, against its permutation null.",
+        "Grey ticks: the estimator on returns shuffled across policies (true MI = 0); grey square and bar: "
+        "their mean ± sd; coloured ring: the observed value. Only the distance between the ring and the null "
+        "is evidence of information about the policy."
+        + panels_left_out({"no task has a finite observed value or null draw": empty}),
+    )
+
+
 def ablation_section(writer: Writer, ablation: Mapping) -> Section:
     """Overlaid RWG trios of the variants of a task (a study of kind ``variants``)."""
     groups = ablation if all(isinstance(v, Mapping) for v in ablation.values()) else {"": ablation}
     blocks = []
     for title, variants in groups.items():
         resolved = {name: (return_matrix(v.rwg) if hasattr(v, "rwg") else v) for name, v in variants.items()}
+        if not resolved:
+            blocks.append(left_out(f"the ablation figure{' of ' + str(title) if title else ''}",
+                                   "it has no variant to draw"))
+            continue
         blocks.append(writer.figure(
             [(fig.ablation_figure(resolved, title=str(title)), f"ablation_{slug(str(title))}")],
             f"Ablation{': ' + str(title) if title else ''}.",

@@ -1,15 +1,41 @@
-"""Numbered figure and table blocks: each written once under the report's ``figures/`` and ``tables/``."""
+"""Numbered figure and table blocks: each written once under the report's ``figures/`` and ``tables/``.
+
+A figure with nothing to show is not drawn: one line stands where it would be, saying what is left out and
+why (:func:`left_out`), and takes no number, so the figures drawn stay numbered 1, 2, … in page order. A
+figure some of whose panels have nothing to show drops them and says so in its caption (:func:`panels_left_out`).
+"""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
 
 from taskcomplexity.report.figures import save_figure
-from taskcomplexity.report.html import FigureBlock, TableBlock
+from taskcomplexity.report.format import and_list
+from taskcomplexity.report.html import FigureBlock, Paragraph, TableBlock
 from taskcomplexity.report.tables import write_table
+
+
+def left_out(what: str, why: str) -> Paragraph:
+    """The line that stands where a figure with nothing to show would be: "The figure of … is left out: why."
+
+    ``what`` names the figure ("the figure of the normalised score against every metric"); ``why`` says what
+    the data lack, true of the data ("this report compares 2 tasks, and a correlation needs at least 3").
+    """
+    return Paragraph(f"{what[:1].upper()}{what[1:]} is left out: {why}.")
+
+
+def panels_left_out(gaps: Mapping[str, Sequence[str]]) -> str:
+    """The caption's sentence on the panels a figure drops: "Left out, with nothing to show: the panels of A
+    and B (why); of C (why)." (empty without any). ``gaps``: why → the labels of the panels it empties."""
+    parts = [f"of {and_list(labels)} ({why})" for why, labels in gaps.items() if labels]
+    if not parts:
+        return ""
+    panels = "panel" if sum(len(labels) for labels in gaps.values()) == 1 else "panels"
+    return f" Left out, with nothing to show: the {panels} " + "; ".join(parts) + "."
 
 
 @dataclass
