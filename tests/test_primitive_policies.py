@@ -3,12 +3,14 @@ config."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import torch
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies.families import network_from_config, sample_family
+from taskcomplexity.policies.families import FAMILIES, network_from_config, sample_family
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.policies.primitives import ArmGeometry, PrimitiveSpec, primitive_parameters, sample_primitives
 from taskcomplexity.rwg import RWGSettings, initial_states, resolve_backend, run_rwg
@@ -135,7 +137,7 @@ def test_returns_do_not_depend_on_the_chunking():
 def test_config_picks_the_family_and_refuses_what_it_cannot_run():
     assert isinstance(network_from_config({"hidden": [32, 32]}), NetworkSpec)
     assert network_from_config({"family": "dmp", "basis": 5}) == PrimitiveSpec(basis=5)
-    with pytest.raises(ConfigError, match=r"network.family must be one of \['mlp', 'dmp'\], got 'rbf'"):
+    with pytest.raises(ConfigError, match=re.escape(f"network.family must be one of {list(FAMILIES)}, got 'rbf'")):
         network_from_config({"family": "rbf"})
     with pytest.raises(ConfigError, match="network.hidden is not a known key"):
         network_from_config({"family": "dmp", "hidden": [3]})

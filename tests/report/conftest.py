@@ -53,3 +53,16 @@ def scored_study():
         "algorithm_scores": {"cart": {"max": 500.0, "average": 480.0}, "pend": {"max": -130.0, "average": -570.0},
                              "car": {"max": 95.9, "average": 12.9}},
     })
+
+
+@pytest.fixture(scope="session")
+def table1_metric_columns():
+    """Table 1's columns after the task's, read from the registry: each bootstrapped metric of the metrics stage
+    by its label, and beside one with a permutation null (not net of it) its null share."""
+    columns = []
+    for m in DEFAULT_REGISTRY.of_stage("metrics"):
+        if m.bootstrapped:
+            columns.append(m.label)
+            if m.information is not None and m.information.null and not m.information.net_of_null:
+                columns.append(f"{m.short} null share")
+    return columns
