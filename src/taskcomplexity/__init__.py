@@ -13,6 +13,8 @@ commands
     The entry points: one Hydra app per stage, plus ``study`` for the whole chain.
 config
     From Hydra/OmegaConf configuration to the library's plain dataclasses.
+cores
+    The CPUs this process may run on (how many workers "one per core" is).
 errors
     Exceptions the library raises; entry points turn them into one readable line and a non-zero exit.
 metrics

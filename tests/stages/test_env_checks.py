@@ -279,7 +279,7 @@ def test_saved_chunks_of_the_policies_done_stay_when_the_env_raises_and_an_empty
     policy, _ = first_far_start(lab)
     cache = Cache(tmp_path / "chunked")
     with pytest.raises(TaskComplexityError, match=f"raised in step 5 of episode .* of policy {policy}: ") as raised:
-        run_rwg_stage(cache, request("Boom", chunk_policies=1))
+        run_rwg_stage(cache, request("Boom", chunk_policies=1, workers=1))
     assert isinstance(raised.value.__cause__, ValueError)
     scratch = cache.root / "rwg" / f".partial-{request('Boom').key}"
     assert sorted(p.name for p in scratch.iterdir()) == [f"chunk-{n:07d}-{n + 1:07d}.npz" for n in range(policy)]
@@ -287,6 +287,19 @@ def test_saved_chunks_of_the_policies_done_stay_when_the_env_raises_and_an_empty
     with pytest.raises(TaskComplexityError, match="ValueError: boom"):
         run_rwg_stage(cache, request("Boom"))
     assert not list((cache.root / "rwg").glob(".partial-*"))
+
+
+def test_on_worker_processes_the_env_raising_ends_in_the_same_line_and_the_chunks_done_stay(lab, tmp_path):
+    policy, _ = first_far_start(lab)
+    cache = Cache(tmp_path / "workers")
+    with pytest.raises(TaskComplexityError, match=f"raised in step 5 of episode .* of policy {policy}: ValueError: "
+                                                  "boom") as raised:
+        run_rwg_stage(cache, request("Boom", chunk_policies=1, workers=2))
+    assert "ValueError: boom" in str(raised.value.__cause__)  # the worker's traceback, as text
+    scratch = cache.root / "rwg" / f".partial-{request('Boom').key}"
+    saved = sorted(p.name for p in scratch.iterdir())
+    assert {f"chunk-{n:07d}-{n + 1:07d}.npz" for n in range(policy)} <= set(saved)  # those done before it, and
+    assert f"chunk-{policy:07d}-{policy + 1:07d}.npz" not in saved  # any the other worker finished; not its own
 
 
 def test_a_reward_of_one_number_in_an_array_gives_the_returns_of_the_float_reward(lab, tmp_path):

@@ -13,7 +13,7 @@ from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
-from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
+from taskcomplexity.rwg import ReturnChunk, RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
 from taskcomplexity.tasks.gym_task import GymTask
@@ -162,6 +162,29 @@ def test_the_generic_backend_matches_the_env_stepped_by_hand_in_any_chunking(env
         assert whole.returns[n, e] == expected and whole.steps[n, e] == steps
     if env_id == "CartPole-v1":  # +1 per step: the return counts the steps
         np.testing.assert_array_equal(whole.returns, whole.steps)
+
+
+def middle(chunk: ReturnChunk) -> ReturnChunk:
+    """Policies 3, 4, 5 of a chunk that starts at policy 0."""
+    return ReturnChunk(chunk.policy[3:6], chunk.returns[3:6], chunk.steps[3:6], chunk.success[3:6])
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_worker_processes_give_the_returns_of_one_process(workers):
+    task, network, prior = GymTask("Pendulum-v1"), NetworkSpec(), PriorSpec()
+    one = run_rwg(task, network, prior, RWGSettings(policies=10, episodes=3, seed=2, workers=1), backend="gym")
+    done = {}
+    pool = run_rwg(task, network, prior, RWGSettings(policies=10, episodes=3, seed=2, chunk_policies=3,
+                                                     workers=workers),
+                   backend="gym", completed={(3, 6): middle(one)}, on_chunk=done.__setitem__)
+    np.testing.assert_array_equal(one.returns, pool.returns)
+    np.testing.assert_array_equal(one.steps, pool.steps)
+    assert sorted(done) == [(0, 3), (6, 9), (9, 10)]  # each chunk computed once, the one given not again
+
+
+def test_rwg_workers_is_refused_below_zero():
+    with pytest.raises(ConfigError, match=r"rwg.workers must be an integer >= 0 \(0 = one per core\), got -1"):
+        RWGSettings(workers=-1).validate()
 
 
 def test_a_mujoco_id_needs_the_mujoco_extra_or_runs_with_it():

@@ -1,7 +1,8 @@
 """Algorithm 1 over a shard's policies: sample each chunk from the family, run its episodes on the backend.
 
 :func:`run_rwg` resolves the backend (refusing one the task or the family cannot run, before any work), splits
-the shard into chunks (:mod:`taskcomplexity.rwg.chunking`) and runs each through :func:`simulate_chunk`, which
+the shard into chunks (:mod:`taskcomplexity.rwg.chunking`) and runs each through :func:`simulate_chunk` (the gym
+backend's on a pool of processes, :mod:`taskcomplexity.rwg.workers`), which
 samples the chunk's policies (:func:`taskcomplexity.policies.families.sample_family`) and hands them to
 :func:`run_batch`, the one dispatch over the backends.
 """
@@ -24,6 +25,7 @@ from taskcomplexity.rwg.chunking import ReturnChunk, chunks
 from taskcomplexity.rwg.gym_backend import GymRollout
 from taskcomplexity.rwg.pybullet_backend import simulate_pybullet
 from taskcomplexity.rwg.settings import RWGSettings
+from taskcomplexity.rwg.workers import gym_workers, run_on_workers
 from taskcomplexity.tasks.base import Task
 
 
@@ -142,21 +144,28 @@ def run_rwg(
     ranges = chunks(task, network, settings, backend)
     total = sum(b - a for a, b in ranges) * settings.episodes
     bar = progress_bar(progress, total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", smoothing=0.1)
-    rollout = GymRollout(task) if backend == "gym" else None
+    pending = [key for key in ranges if key not in completed]
+    workers = gym_workers(settings, len(pending)) if backend == "gym" else 1
+    rollout = GymRollout(task) if backend == "gym" and workers == 1 else None
+
+    def done(key: tuple[int, int], chunk: ReturnChunk) -> None:
+        completed[key] = chunk
+        if on_chunk is not None:
+            on_chunk(key, chunk)
+        bar.update((key[1] - key[0]) * settings.episodes)
+
+    bar.update(sum(b - a for a, b in ranges if (a, b) in completed) * settings.episodes)
     # The policy forward pass already runs one thread per core (PolicyBatch.act): BLAS threads inside those
     # workers would only spin against them. One BLAS thread per worker computes the same products.
     blas = threadpool_limits(limits=1, user_api="blas")
     try:
-        for key in ranges:
+        if workers > 1:  # the gym backend's chunks on a pool of processes, each stepping its own environments
+            run_on_workers(task, network, prior, settings, pending, workers, done)
+        for key in pending:
             if key not in completed:
                 # through the package's public name, which a test replaces to kill a run between two chunks
-                completed[key] = rwg.simulate_chunk(
-                    task, network, prior, settings, *key, backend=backend, progress=progress is True,
-                    rollout=rollout
-                )
-                if on_chunk is not None:
-                    on_chunk(key, completed[key])
-            bar.update((key[1] - key[0]) * settings.episodes)
+                done(key, rwg.simulate_chunk(task, network, prior, settings, *key, backend=backend,
+                                             progress=progress is True, rollout=rollout))
     finally:
         blas.restore_original_limits()
         bar.close()

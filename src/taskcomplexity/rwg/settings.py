@@ -32,6 +32,9 @@ class RWGSettings:
         Working-memory budget of one chunk on the batched backend, MB.
     shard, shards : int
         This job simulates policy range ``shard`` of ``shards`` equal ranges.
+    workers : int
+        Processes stepping the gym backend's environments, each a chunk at a time (0: one per usable core; at
+        most one per chunk). The other backends use the cores within one process.
     contacts : {'pybullet', 'model'}
         The obstacle task's forearm–block contacts on the batched backend: ``pybullet`` finishes each
         episode that reaches the block on the PyBullet reference (exact, PyBullet's speed);
@@ -54,6 +57,7 @@ class RWGSettings:
     chunk_memory_mb: int = setting(512, result=False)
     shard: int = setting(0, result=False)
     shards: int = setting(1, result=False)
+    workers: int = setting(0, result=False)
     contacts: str = "pybullet"
     common_initial_states: bool = False
     precision: str = "float64"
@@ -67,6 +71,8 @@ class RWGSettings:
             raise ConfigError(f"rwg.seed must be a non-negative integer, got {self.seed}")
         if self.chunk_policies < 0:
             raise ConfigError(f"rwg.chunk_policies must be >= 0 (0 = automatic), got {self.chunk_policies}")
+        if isinstance(self.workers, bool) or not isinstance(self.workers, int) or self.workers < 0:
+            raise ConfigError(f"rwg.workers must be an integer >= 0 (0 = one per core), got {self.workers!r}")
         if self.chunk_memory_mb < 1:
             raise ConfigError(f"rwg.chunk_memory_mb must be >= 1, got {self.chunk_memory_mb}")
         if self.contacts not in CONTACTS:

@@ -13,7 +13,6 @@ task's budget only.
 from __future__ import annotations
 
 import logging
-import os
 import shutil
 import time
 from collections.abc import Sequence
@@ -22,6 +21,7 @@ from typing import Any
 import pandas as pd
 
 from taskcomplexity.config import build, result_identity
+from taskcomplexity.cores import usable_cores
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl.settings import (
     SACSettings,
@@ -157,9 +157,7 @@ def training_plan(cache: Cache, runs, workers: int = 1) -> str:
 
 def sac_workers(settings) -> int:
     """Runs trained at once: ``sac.workers``, or one per CPU when it is 0."""
-    if settings.workers:
-        return settings.workers
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    return settings.workers or usable_cores()
 
 
 def train_at_once(cache: Cache, jobs, workers: int, *, force: bool = False, progress: bool = False) -> dict:

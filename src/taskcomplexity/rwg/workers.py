@@ -1,0 +1,67 @@
+"""The gym backend on several processes: each worker steps the environments of whole chunks.
+
+A chunk's returns depend only on (task, policy n, episode e, seed) (:mod:`taskcomplexity.rwg.gym_backend`), so
+chunks run on any worker, in any order, give the returns one process gives. Workers start the platform's way
+(``fork`` on Linux, so an env registered by the calling script is registered in them too) and, as PyTorch's
+data-loader workers do, run their policies' forward pass on one thread (a forked OpenMP pool is not used);
+each holds one environment pool for the whole run, so W workers keep W cores stepping environments.
+"""
+
+from __future__ import annotations
+
+import atexit
+import concurrent.futures
+import multiprocessing
+from collections.abc import Callable, Sequence
+
+import torch
+from threadpoolctl import threadpool_limits
+
+from taskcomplexity.cores import usable_cores
+from taskcomplexity.policies.families import FamilySpec
+from taskcomplexity.policies.mlp import PriorSpec
+from taskcomplexity.rwg.chunking import ReturnChunk
+from taskcomplexity.rwg.gym_backend import GymRollout
+from taskcomplexity.rwg.settings import RWGSettings
+from taskcomplexity.tasks.base import Task
+
+_ROLLOUT: GymRollout | None = None
+"""The environment pool of this worker process (made by :func:`_start`)."""
+
+
+def gym_workers(settings: RWGSettings, chunks: int) -> int:
+    """Processes to step ``chunks`` chunks: ``rwg.workers`` (0: one per usable core), at most one per chunk."""
+    return max(1, min(settings.workers or usable_cores(), chunks))
+
+
+def _start(task: Task) -> None:
+    global _ROLLOUT
+    torch.set_num_threads(1)
+    threadpool_limits(limits=1)
+    _ROLLOUT = GymRollout(task)
+    atexit.register(_ROLLOUT.close)
+
+
+def _chunk(task: Task, network: FamilySpec, prior: PriorSpec, settings: RWGSettings, start: int,
+           stop: int) -> ReturnChunk:
+    from taskcomplexity.rwg.run import simulate_chunk
+
+    return simulate_chunk(task, network, prior, settings, start, stop, backend="gym", rollout=_ROLLOUT)
+
+
+def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: RWGSettings,
+                   keys: Sequence[tuple[int, int]], workers: int,
+                   done: Callable[[tuple[int, int], ReturnChunk], None]) -> None:
+    """Run the chunks ``keys`` ([start, stop) policy ranges) on ``workers`` processes; ``done(key, chunk)`` is
+    called in this process as each finishes (in the order they finish). An error in a worker (an env check's
+    refusal, a bug) is raised here, after the chunks already done were handed to ``done``."""
+    context = multiprocessing.get_context()
+    with concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start,
+                                                initargs=(task,)) as pool:
+        futures = {pool.submit(_chunk, task, network, prior, settings, *key): key for key in keys}
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                done(futures[future], future.result())
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
