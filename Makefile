@@ -8,7 +8,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep test test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas test test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -46,6 +46,10 @@ beyond: $(STAMP) ## make run + a fifth of the SAC budgets × 2 seeds: the paper'
 
 classic: $(STAMP) ## the original PIC/POIC protocol on classic control (study=classic_control: N = M = 1000, five tasks)
 	$(PY) pipelines/study.py study=classic_control $(ARGS)
+
+atlas: $(STAMP) ## Furuta et al.'s 13 tasks (classic control, MuJoCo, DM Control) against their Score(A); installs the atlas extra
+	$(PY) -m pip install --quiet -e '.[atlas]'
+	$(PY) pipelines/study.py experiment=atlas $(ARGS)
 
 # The 28 cells of Furuta et al.'s sweep: 7 architectures × 4 priors (each cell is one study=classic_control job).
 CLASSIC_NETWORKS := pic_linear,pic_h1_4,pic_h1_32,pic_h1_64,pic_h2_4,pic_h2_32,pic_h2_64

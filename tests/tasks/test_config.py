@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import re
 
 import pytest
@@ -83,12 +84,26 @@ TASK_PRESETS = sorted(p.stem for p in (CONF_DIR / "task").glob("*.yaml") if p.st
 STUDIES = sorted(p.stem for p in (CONF_DIR / "study").glob("*.yaml"))
 
 
+EXTRA = re.compile(r"task\.env_id=\S+ needs (?P<module>MuJoCo|shimmy), which is not installed: "
+                   r"pip install -e '\.\[(?P<extra>mujoco|dmc)\]'")
+
+
+def refused_for_a_missing_extra(err: ConfigError) -> bool:
+    """Whether ``err`` is the one line that names the extra a task needs, and that extra's module is missing."""
+    found = EXTRA.fullmatch(str(err))
+    return bool(found) and importlib.util.find_spec({"MuJoCo": "mujoco", "shimmy": "shimmy"}[found["module"]]) is None
+
+
 @pytest.mark.parametrize("preset", TASK_PRESETS)
 def test_every_task_preset_composes_into_a_gymnasium_task(compose_config, preset):
     from taskcomplexity.tasks.gym_task import GymTask
 
     cfg = compose_config(f"task={preset}")
-    task = task_from_config(cfg)
+    try:
+        task = task_from_config(cfg)
+    except ConfigError as err:  # a MuJoCo or DM Control preset without its extra: refused in one line naming it
+        assert refused_for_a_missing_extra(err), err
+        return
     assert isinstance(task, GymTask) and task.env_id == cfg.task.env_id
     assert task.max_steps >= 1 and task.observation_size >= 1 and task.action_size >= 1
 
@@ -113,7 +128,11 @@ def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compos
 
     cfg = compose_config(f"study={study}", "experiment=smoke")
     loaded = study_from(cfg)
-    pairs = study_requests(cfg, loaded)
+    try:
+        pairs = study_requests(cfg, loaded)
+    except ConfigError as err:  # a study of MuJoCo or DM Control tasks without the extras
+        assert refused_for_a_missing_extra(err), err
+        return
     assert [entry.id for entry, _ in pairs] == list(loaded.ids)
     for entry, request in pairs:
         assert request.backend == request.task.backends[0]  # backend=auto: the task's fastest
@@ -246,3 +265,18 @@ def test_metrics_bins_refuses_anything_but_an_integer_or_auto(compose_config):
     for value, shown in (("many", "'many'"), ("1", "1")):
         with pytest.raises(ConfigError, match=rf"metrics\.bins must be an integer >= 2 \(B\) or auto .*got {shown}"):
             metrics_settings_from_config(compose_config(f"metrics.bins={value}"))
+
+
+def test_the_atlas_study_is_furutas_thirteen_tasks_with_a_score_each_declared_once(compose_config):
+    from taskcomplexity.study.plan import study_from
+
+    atlas = study_from(compose_config("study=furuta_benchmark"))
+    classic = study_from(compose_config("study=classic_control"))
+    assert len(atlas.ids) == 13 and set(classic.ids) < set(atlas.ids)
+    assert set(atlas.algorithm_scores) == set(atlas.ids)  # Score(A) is defined for every task
+    for task in classic.ids:  # the five classic-control scores come from classic_control's file alone
+        assert atlas.algorithm_scores[task] == classic.algorithm_scores[task]
+    assert "Ant" not in (CONF_DIR / "study" / "classic_control.yaml").read_text()
+    assert (atlas.published.policies, atlas.published.episodes) == (1000, 1000)  # their protocol, as published
+    atlas_budget = compose_config("experiment=atlas")
+    assert atlas_budget.study.name == "furuta_benchmark" and not atlas_budget.sac.enabled

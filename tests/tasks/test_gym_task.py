@@ -92,25 +92,25 @@ def test_missing_module_ids_without_a_time_limit_and_unsupported_spaces_are_refu
     with pytest.raises(ConfigError, match="cannot import module 'no_such_lab_module'"):
         GymTask("no_such_lab_module:Env-v0")
 
-    class DictObservation(gymnasium.Env):
-        observation_space = spaces.Dict({"x": spaces.Box(-1, 1, (1,))})
+    class BinaryObservation(gymnasium.Env):
+        observation_space = spaces.MultiBinary(3)
         action_space = spaces.Discrete(2)
 
         def reset(self, *, seed=None, options=None):
-            return {"x": np.zeros(1, dtype=np.float32)}, {}
+            return np.zeros(3, dtype=np.int8), {}
 
         def step(self, action):
-            return {"x": np.zeros(1, dtype=np.float32)}, 0.0, True, False, {}
+            return np.zeros(3, dtype=np.int8), 0.0, True, False, {}
 
-    gymnasium.register("TestDictObservation-v0", entry_point=DictObservation)
+    gymnasium.register("TestBinaryObservation-v0", entry_point=BinaryObservation)
     try:
-        with pytest.raises(ConfigError, match="task.max_steps must be set for task.env_id=TestDictObservation-v0"):
-            GymTask("TestDictObservation-v0")
-        with pytest.raises(ConfigError, match=r"the observation space Dict\(.*\) is not supported \(allowed: Box, "
-                                              r"Discrete\)"):
-            GymTask("TestDictObservation-v0", max_steps=5).validate()
+        with pytest.raises(ConfigError, match="task.max_steps must be set for task.env_id=TestBinaryObservation-v0"):
+            GymTask("TestBinaryObservation-v0")
+        with pytest.raises(ConfigError, match=r"the observation space MultiBinary\(3\) is not supported \(allowed: "
+                                              r"Box, Discrete\)"):
+            GymTask("TestBinaryObservation-v0", max_steps=5).validate()
     finally:
-        del gymnasium.registry["TestDictObservation-v0"]
+        del gymnasium.registry["TestBinaryObservation-v0"]
 
 
 def test_actions_fill_the_box_bounds_and_discrete_actions_are_the_argmax():
@@ -180,6 +180,54 @@ def test_worker_processes_give_the_returns_of_one_process(workers):
     np.testing.assert_array_equal(one.returns, pool.returns)
     np.testing.assert_array_equal(one.steps, pool.steps)
     assert sorted(done) == [(0, 3), (6, 9), (9, 10)]  # each chunk computed once, the one given not again
+
+
+class DictObservations(gymnasium.Env):
+    """Observations as DM Control's reach gymnasium through Shimmy: a Dict of Boxes (and here a Discrete)."""
+
+    observation_space = spaces.Dict({"position": spaces.Box(-1.0, 1.0, (2,)), "phase": spaces.Discrete(3),
+                                     "velocity": spaces.Box(-5.0, 5.0, (1,))})
+    action_space = spaces.Box(-1.0, 1.0, (1,))
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        return self.observation_space.sample(), {}
+
+    def step(self, action):
+        return self.observation_space.sample(), float(action[0]), False, False, {}
+
+
+def test_a_dict_observation_is_flattened_into_one_box_and_runs():
+    gymnasium.register("DictObservations-v0", entry_point=DictObservations, max_episode_steps=5)
+    try:
+        task = GymTask("DictObservations-v0").validate()
+        assert isinstance(task.observation_space, spaces.Box) and task.observation_size == 2 + 3 + 1  # one-hot phase
+        result = run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=4, episodes=2, workers=1),
+                         backend="gym")
+        assert result.returns.shape == (4, 2) and (result.steps == 5).all()
+    finally:
+        gymnasium.registry.pop("DictObservations-v0")
+
+
+def test_a_task_pickles_without_its_spec_and_finds_it_again():
+    import pickle
+
+    task = GymTask("Pendulum-v1")
+    assert task.observation_size == 3 and "spec" in task.__dict__  # both cached
+    copy = pickle.loads(pickle.dumps(task))
+    assert "spec" not in copy.__dict__ and copy == task and copy.spec.id == "Pendulum-v1"
+
+
+def test_a_dm_control_id_needs_the_dmc_extra_or_runs_flattened_with_it():
+    try:
+        import shimmy  # noqa: F401
+    except ImportError:
+        with pytest.raises(ConfigError, match=r"task\.env_id=shimmy:dm_control/reacher-easy-v0 needs shimmy, which is "
+                                              r"not installed: pip install -e '\.\[dmc\]'"):
+            GymTask("shimmy:dm_control/reacher-easy-v0", max_steps=1000)
+        return
+    task = GymTask("shimmy:dm_control/reacher-easy-v0", max_steps=1000).validate()
+    assert isinstance(task.observation_space, spaces.Box) and task.observation_size == 6 and task.action_size == 2
 
 
 def test_rwg_workers_is_refused_below_zero():

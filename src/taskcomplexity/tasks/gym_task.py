@@ -25,6 +25,9 @@ from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.base import check_space, flat_size
 
 MUJOCO_EXTRA = "pip install -e '.[mujoco]'"
+EXTRAS = {"shimmy": "pip install -e '.[dmc]'"}
+"""Modules of an id's ``module:`` prefix that an optional extra installs → the command that installs it (DM Control's
+tasks are ``shimmy:dm_control/<domain>-<task>-v0``)."""
 
 
 @dataclass(frozen=True, eq=True)
@@ -52,8 +55,9 @@ class GymTask:
     def __post_init__(self) -> None:
         if not isinstance(self.env_id, str) or not self.env_id:
             raise ConfigError(f"task.env_id must be a gymnasium id (e.g. Pendulum-v1), got {self.env_id!r}")
+        spec = self.spec  # an unknown id, or one whose extra is missing, is refused here
         if self.max_steps is None:
-            limit = self.spec.max_episode_steps
+            limit = spec.max_episode_steps
             if limit is None:
                 raise ConfigError(f"task.max_steps must be set for task.env_id={self.env_id} "
                                   "(it registers no time limit)")
@@ -61,6 +65,14 @@ class GymTask:
         elif self.max_steps < 1:
             raise ConfigError(f"task.max_steps must be an integer >= 1 or null (the env's own limit), "
                               f"got {self.max_steps}")
+
+    def __getstate__(self) -> dict:
+        """The fields alone: a worker process finds the spec and the spaces again (an id registered by a plugin,
+        like Shimmy's DM Control tasks, has an entry point that cannot be pickled)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("spec", "_spaces")}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
     # -- identity ----------------------------------------------------------------------------
     @property
@@ -114,11 +126,16 @@ class GymTask:
         return flat_size(self.action_space)
 
     def make_env(self, **kwargs: Any) -> gymnasium.Env:
-        """``gymnasium.make`` with the task's arguments and episode limit (no env checker)."""
+        """``gymnasium.make`` with the task's arguments and episode limit (no env checker); a ``Dict`` or ``Tuple``
+        observation space is flattened into one ``Box`` (``gymnasium.wrappers.FlattenObservation``: its parts
+        in the space's order, ``Discrete`` parts one-hot), as DM Control's tasks reach gymnasium through Shimmy."""
         arguments = {**self.kwargs, **kwargs}
         env_id = self.env_id if ":" not in self.env_id else self.spec.id
         try:
-            return gymnasium.make(env_id, max_episode_steps=self.max_steps, disable_env_checker=True, **arguments)
+            env = gymnasium.make(env_id, max_episode_steps=self.max_steps, disable_env_checker=True, **arguments)
+            if isinstance(env.observation_space, (gymnasium.spaces.Dict, gymnasium.spaces.Tuple)):
+                env = gymnasium.wrappers.FlattenObservation(env)
+            return env
         except ConfigError as err:  # an env of this package refusing an argument's value (it names the argument)
             raise ConfigError(f"task.kwargs of {self.env_id}: {err}") from err
         except gymnasium.error.DependencyNotInstalled as err:
@@ -141,6 +158,9 @@ def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
         try:
             importlib.import_module(module)
         except ModuleNotFoundError as err:
+            if module in EXTRAS:
+                raise ConfigError(f"task.env_id={env_id} needs {module}, which is not installed: "
+                                  f"{EXTRAS[module]}") from err
             raise ConfigError(f"task.env_id={env_id}: cannot import module {module!r} ({err})") from err
     else:
         name = env_id
