@@ -298,8 +298,9 @@ def test_on_worker_processes_the_env_raising_ends_in_the_same_line_and_the_chunk
     assert "ValueError: boom" in str(raised.value.__cause__)  # the worker's traceback, as text
     scratch = cache.root / "rwg" / f".partial-{request('Boom').key}"
     saved = sorted(p.name for p in scratch.iterdir())
-    assert {f"chunk-{n:07d}-{n + 1:07d}.npz" for n in range(policy)} <= set(saved)  # those done before it, and
-    assert f"chunk-{policy:07d}-{policy + 1:07d}.npz" not in saved  # any the other worker finished; not its own
+    # every chunk started before it (each done, or running on the other worker and let finish), and not its own
+    assert {f"chunk-{n:07d}-{n + 1:07d}.npz" for n in range(policy)} <= set(saved)
+    assert f"chunk-{policy:07d}-{policy + 1:07d}.npz" not in saved
 
 
 def test_a_reward_of_one_number_in_an_array_gives_the_returns_of_the_float_reward(lab, tmp_path):

@@ -278,3 +278,26 @@ def test_an_edit_to_the_envs_source_makes_it_a_new_task(tmp_path, monkeypatch):
     assert {k: v for k, v in before.items() if k != "source"} == {k: v for k, v in after.items() if k != "source"}
     del gymnasium.registry["EditedStill-v0"]
     sys.modules.pop("edited_lab", None)
+
+
+def slow_first_failing_second(task, network, prior, settings, start, stop):
+    """A worker's chunk (in place of rwg.workers._chunk): chunk 0 takes a second, chunk 1 fails at once."""
+    import time
+
+    if start == 1:
+        raise ValueError("boom")
+    if start == 0:
+        time.sleep(1.0)
+    return ReturnChunk(np.arange(start, stop), np.zeros((stop - start, 2)), np.ones((stop - start, 2), dtype=np.int64),
+                       np.zeros((stop - start, 2), dtype=bool))
+
+
+def test_a_failing_chunk_lets_the_running_ones_finish_and_keeps_them(monkeypatch):
+    from taskcomplexity.rwg import workers
+
+    monkeypatch.setattr(workers, "_chunk", slow_first_failing_second)  # the forked workers inherit it
+    done = {}
+    with pytest.raises(ValueError, match="boom"):
+        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(),
+                               [(0, 1), (1, 2), (2, 3), (3, 4)], 2, done.__setitem__)
+    assert (0, 1) in done and (1, 2) not in done  # chunk 0 was running when chunk 1 failed: it is kept

@@ -54,14 +54,22 @@ def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: 
                    done: Callable[[tuple[int, int], ReturnChunk], None]) -> None:
     """Run the chunks ``keys`` ([start, stop) policy ranges) on ``workers`` processes; ``done(key, chunk)`` is
     called in this process as each finishes (in the order they finish). An error in a worker (an env check's
-    refusal, a bug) is raised here, after the chunks already done were handed to ``done``."""
+    refusal, a bug) cancels the chunks not started, lets the running ones finish and hands them to ``done`` (so
+    nothing computed is lost), then is raised here."""
     context = multiprocessing.get_context()
+    error: BaseException | None = None
     with concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start,
                                                 initargs=(task,)) as pool:
         futures = {pool.submit(_chunk, task, network, prior, settings, *key): key for key in keys}
-        try:
-            for future in concurrent.futures.as_completed(futures):
+        for future in concurrent.futures.as_completed(futures):
+            if future.cancelled():
+                continue
+            failed = future.exception()
+            if failed is None:
                 done(futures[future], future.result())
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
+            elif error is None:
+                error = failed
+                for other in futures:
+                    other.cancel()  # those not started; the running ones finish and are kept
+    if error is not None:
+        raise error
