@@ -139,3 +139,12 @@ def test_every_default_metric_states_its_direction_family_stage_and_why():
     from taskcomplexity.stages.declared import judged_stages
 
     assert {m.stage for m in DEFAULT_REGISTRY} <= set(judged_stages())  # each a declared stage the verdict judges
+
+
+def test_every_information_estimate_has_a_permutation_null_or_says_why_not():
+    # PIC-like values (checked against a ceiling ln N, or of the quantity I(Θ; R)) are information estimates
+    informations = [m for m in DEFAULT_REGISTRY if m.information is not None
+                    and (m.information.ceiling or m.quantity == "I(Θ; R)")]
+    assert {"pic", "pic_miller_madow", "pic_knn", "path_pic", "dmp_pic"} <= {m.name for m in informations}
+    for m in informations:
+        assert bool(m.information.null) != bool(m.information.no_null), m.name  # one or the other, never both

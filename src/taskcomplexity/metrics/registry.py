@@ -89,12 +89,16 @@ class Information:
         The estimator is the plug-in one on B histogram bins, so its value and its null move with B (and,
         under ``metrics.bins=auto``, with N): what the report says about more sampling. Not hashed: it
         changes no number.
+    no_null : str
+        Why an information estimate has no permutation null ("" when it has one, or is not an information):
+        the verdict then judges it without the null check. Not hashed: it changes no number.
     """
 
     null: str | None = None
     ceiling: bool = False
     net_of_null: bool = False
     binned: bool = False
+    no_null: str = ""
 
     def identity(self) -> dict:
         return {"null": self.null, "ceiling": self.ceiling, "net_of_null": self.net_of_null}
@@ -326,7 +330,9 @@ DEFAULT_REGISTRY = Registry((
                "prior"),
     Metric("path_pic", "learning-path PIC", "path PIC", "nats", True, BEYOND, "learning_path",
            compute=lambda p: p.pic, bootstrapped=True, batched=True, draws=lambda p: p.draws("pic"),
-           information=Information(ceiling=True),
+           information=Information(ceiling=True, no_null=(
+               "its samples are policies perturbed around each of SAC's snapshots, which the learning-path stage "
+               "does not permute; a null there would need the perturbed policies' returns shuffled per snapshot")),
            why="the paper's second proposal: PIC measured around the parameters SAC passes through while it "
                "learns, where the choice of parameters matters to an optimiser, instead of around the prior's"),
     Metric("path_poic", "learning-path POIC", "path POIC", "nats", True, BEYOND, "learning_path",
@@ -334,7 +340,9 @@ DEFAULT_REGISTRY = Registry((
            why="the paper's second proposal, for POIC: the optimality information around SAC's learning path"),
     Metric("dmp_pic", "PIC under DMPs", "DMP PIC", "nats", True, BEYOND, "primitives",
            compute=lambda s: s.pic.pic, bootstrapped=True, batched=True,
-           draws=lambda s: s.bootstrap["pic"].to_numpy(), information=Information(ceiling=True),
+           draws=lambda s: s.bootstrap["pic"].to_numpy(), information=Information(ceiling=True, no_null=(
+               "its returns are the movement-primitive family's, which the primitives stage estimates and the "
+               "diagnostics stage, which permutes the MLP family's returns, does not")),
            details=(Detail("dmp_h_r", "H(R) under DMPs", "nats", lambda s: s.pic.h_r, shown=False),
                     Detail("dmp_h_r_given_theta", "H(R|Θ) under DMPs", "nats", lambda s: s.pic.h_r_given_theta,
                            shown=False)),
