@@ -99,6 +99,34 @@ class AlgorithmScore:
 
 
 @dataclass(frozen=True)
+class PublishedTable:
+    """Numbers a paper printed for a study's tasks, which the report sets beside ours.
+
+    Attributes
+    ----------
+    source : str
+        Where they were printed and under which protocol (e.g. "supplement Table 11, a bag of 56 architectures").
+    values : mapping of task id to mapping of quantity to float
+        Per task, the printed value of each quantity: a registered metric (``pic``, ``poic``, ``variance``), one
+        of its details (``h_r``, ``h_o_given_theta``) or a reference score (``score_a``, ``score_r``); the names
+        are checked against the registry when the study is planned.
+    correlations : mapping of reference to mapping of quantity to (r, p)
+        Printed Pearson r (and its p-value) of each quantity's value with a reference score across the tasks.
+    """
+
+    source: str
+    values: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    correlations: Mapping[str, Mapping[str, tuple[float, float]]] = field(default_factory=dict)
+
+    @property
+    def quantities(self) -> tuple[str, ...]:
+        """Every quantity the table names, in first-seen order (values, then correlations)."""
+        names = [q for row in self.values.values() for q in row]
+        names += [q for row in self.correlations.values() for q in row]
+        return tuple(dict.fromkeys(names))
+
+
+@dataclass(frozen=True)
 class PublishedScale:
     """N, M and B of a published table: PIC's histogram estimator depends on all three.
 
@@ -110,12 +138,16 @@ class PublishedScale:
         B, PIC's equal-width bins.
     source : str
         Where the table was published (e.g. "Table 1 of the paper").
+    tables : mapping of str to PublishedTable
+        The published numbers at this scale, by a short name (e.g. ``bag``, ``single``): the report sets ours
+        beside them.
     """
 
     policies: int
     episodes: int
     bins: int
     source: str = "the published table"
+    tables: Mapping[str, PublishedTable] = field(default_factory=dict)
 
     def differs(self, policies: int, episodes: int, bins: int) -> bool:
         return (policies, episodes, bins) != (self.policies, self.episodes, self.bins)
@@ -254,7 +286,7 @@ def study_from_config(node: Any) -> Study:
             raise ConfigError(f"study.{key} must be an integer >= 2 or null, got {value!r}")
         counts[key] = value
     return Study(name=name, tasks=tasks, relations=relations, orders=orders, reference=reference,
-                 algorithm_scores=algorithm_scores, kind=kind, published=_published(node.get("published")),
+                 algorithm_scores=algorithm_scores, kind=kind, published=_published(node.get("published"), ids),
                  **family, **counts)
 
 
@@ -272,13 +304,13 @@ def _algorithm_score(node: Any, task_id: Any, ids: list[str]) -> AlgorithmScore:
     return AlgorithmScore(max=float(node["max"]), average=float(node["average"]))
 
 
-def _published(node: Any) -> PublishedScale | None:
+def _published(node: Any, ids: list[str]) -> PublishedScale | None:
     if node is None:
         return None
     fields = ("policies", "episodes", "bins")
-    if not isinstance(node, Mapping) or set(node) - {*fields, "source"} or set(fields) - set(node):
+    if not isinstance(node, Mapping) or set(node) - {*fields, "source", "tables"} or set(fields) - set(node):
         raise ConfigError(f"study.published must be a mapping with policies, episodes, bins (and optionally "
-                          f"source), got {node!r}")
+                          f"source, tables), got {node!r}")
     for key in fields:
         value = node[key]
         if isinstance(value, bool) or not isinstance(value, int) or value < 2:
@@ -286,7 +318,48 @@ def _published(node: Any) -> PublishedScale | None:
     source = node.get("source", PublishedScale.source)
     if not isinstance(source, str):
         raise ConfigError(f"study.published.source must be a string, got {source!r}")
-    return PublishedScale(policies=node["policies"], episodes=node["episodes"], bins=node["bins"], source=source)
+    tables = node.get("tables") or {}
+    if not isinstance(tables, Mapping):
+        raise ConfigError(f"study.published.tables must be a mapping of name to {{source, values, correlations}}, "
+                          f"got {tables!r}")
+    return PublishedScale(policies=node["policies"], episodes=node["episodes"], bins=node["bins"], source=source,
+                          tables={str(name): _published_table(table, f"study.published.tables.{name}", ids)
+                                  for name, table in tables.items()})
+
+
+def _published_table(node: Any, where: str, ids: list[str]) -> PublishedTable:
+    if not isinstance(node, Mapping) or "source" not in node or set(node) - {"source", "values", "correlations"}:
+        raise ConfigError(f"{where} must be a mapping with source (and values, correlations), got {node!r}")
+    if not isinstance(node["source"], str) or not node["source"]:
+        raise ConfigError(f"{where}.source must be a non-empty string, got {node['source']!r}")
+    values = {}
+    for task_id, row in (node.get("values") or {}).items():
+        _known(f"{where}.values", task_id, ids)
+        if not isinstance(row, Mapping) or not row:
+            raise ConfigError(f"{where}.values.{task_id} must be a mapping of quantity to number, got {row!r}")
+        values[str(task_id)] = {str(q): _finite(v, f"{where}.values.{task_id}.{q}") for q, v in row.items()}
+    correlations = {}
+    for reference, row in (node.get("correlations") or {}).items():
+        if not isinstance(row, Mapping) or not row:
+            raise ConfigError(f"{where}.correlations.{reference} must be a mapping of quantity to [r, p], "
+                              f"got {row!r}")
+        pairs = {}
+        for quantity, pair in row.items():
+            at = f"{where}.correlations.{reference}.{quantity}"
+            if not isinstance(pair, (list, tuple)) or len(pair) != 2:
+                raise ConfigError(f"{at} must be [r, p], got {pair!r}")
+            r, p = _finite(pair[0], at), _finite(pair[1], at)
+            if not (-1 <= r <= 1 and 0 <= p <= 1):
+                raise ConfigError(f"{at} must be [r, p] with -1 <= r <= 1 and 0 <= p <= 1, got {list(pair)}")
+            pairs[str(quantity)] = (r, p)
+        correlations[str(reference)] = pairs
+    return PublishedTable(source=node["source"], values=values, correlations=correlations)
+
+
+def _finite(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{where} must be a finite number, got {value!r}")
+    return float(value)
 
 
 def load_study_file(path) -> Study:

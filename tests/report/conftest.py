@@ -52,6 +52,9 @@ def scored_study():
                   {"id": "car", "env_id": "MountainCarContinuous-v0"}],
         "algorithm_scores": {"cart": {"max": 500.0, "average": 480.0}, "pend": {"max": -130.0, "average": -570.0},
                              "car": {"max": 95.9, "average": 12.9}},
+        "published": {"policies": 1000, "episodes": 1000, "bins": 100_000, "source": "a paper", "tables": {
+            "printed": {"source": "its table", "values": {"cart": {"pic": 1.2, "score_a": 0.97}, "pend": {"pic": 3.7}},
+                        "correlations": {"score_a": {"poic": [0.807, 0.001], "pic": [-0.295, 0.328]}}}}},
     })
 
 

@@ -19,6 +19,8 @@ from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
 from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
+from taskcomplexity.verdict.references import on_values
+from taskcomplexity.verdict.replication import REPLICATION_OUTCOMES
 
 PAIR = study_from_config({
     "name": "pair",
@@ -150,8 +152,7 @@ def test_a_study_without_relations_shows_its_metrics_and_says_there_is_nothing_t
 
 
 def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp_path, run_stages, scored_study):
-    found = run_stages(tmp_path, scored_study, requests("CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0"),
-                       diagnostics=False)
+    found = run_stages(tmp_path, scored_study, requests("CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0"))
     metrics = {r.task_id: pd.read_parquet(r.metrics.file("metrics.parquet")).iloc[0] for r in found["results"]}
     references = pd.read_parquet(found["verdict"].file("references.parquet")).set_index(["task", "reference"])
     for task, score in scored_study.algorithm_scores.items():  # the definitions, from the metrics artefact's bounds
@@ -159,15 +160,34 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
         span = max(m["r_max"], score.max) - m["r_min"]
         assert references.loc[(task, "score_a"), "value"] == pytest.approx((score.average - m["r_min"]) / span)
         assert references.loc[(task, "score_r"), "value"] == pytest.approx((m["r_mean"] - m["r_min"]) / span)
-    correlated = pd.read_parquet(found["verdict"].file("correlations.parquet"))
+    correlated = on_values(pd.read_parquet(found["verdict"].file("correlations.parquet")))
     metric_rows = correlated[correlated["quantity"] == correlated["metric"]]
-    assert set(metric_rows["metric"]) == {m.name for m in DEFAULT_REGISTRY.of_stage("metrics")}
+    assert set(metric_rows["metric"]) == {m.name for m in DEFAULT_REGISTRY if m.stage in ("metrics", "diagnostics")}
     assert {"h_r", "h_r_given_theta", "h_o", "h_o_given_theta"} <= set(correlated["quantity"])
     assert set(correlated["reference"]) == {"score_a", "score_r"} and (correlated["tasks"] == 3).all()
     pic = correlated.set_index(["quantity", "reference"]).loc[("pic", "score_a")]
     values = [metrics[t]["pic"] for t in ("cart", "pend", "car")]
     x = [references.loc[(t, "score_a"), "value"] for t in ("cart", "pend", "car")]
     assert pic["pearson_r"] == pytest.approx(float(np.corrcoef(x, values)[0, 1]))
+    # the bootstrap interval of r: r of Score(A) with the draws of each resample (each task's centred on its value),
+    # over the resamples
+    draws = {r.task_id: pd.read_parquet(r.metrics.file("bootstrap.parquet"))["pic"] for r in found["results"]}
+    draws = {t: d - d.mean() + metrics[t]["pic"] for t, d in draws.items()}
+    rs = [np.corrcoef(x, [draws[t][b] for t in ("cart", "pend", "car")])[0, 1] for b in range(20)]
+    assert (pic["pearson_low"], pic["pearson_high"]) == pytest.approx(tuple(np.quantile(rs, [0.025, 0.975])))
+    every = pd.read_parquet(found["verdict"].file("correlations.parquet"))
+    information = pd.read_parquet(found["verdict"].file("information.parquet")).set_index(["metric", "task"])
+    net = every[(every["quantity"] == "pic") & (every["reference"] == "score_a") & (every["basis"] == "net of null")]
+    centred = [values[i] - information.loc[("pic", t), "null_mean"] for i, t in enumerate(("cart", "pend", "car"))]
+    assert net["pearson_r"].item() == pytest.approx(float(np.corrcoef(x, centred)[0, 1]))
+    assert net["pearson_low"].item() <= net["pearson_r"].item() <= net["pearson_high"].item()
+    informative = every[(every["quantity"] == "poic") & (every["basis"] == "informative")]
+    assert (informative["tasks"] == information.loc["poic", "informative"].sum()).all()
+    # the published correlations beside ours, with an outcome each
+    replicated = pd.read_parquet(found["verdict"].file("replications.parquet")).set_index("quantity")
+    assert list(replicated.index) == ["poic", "pic"] and replicated.loc["poic", "published_r"] == 0.807
+    assert replicated.loc["pic", "pearson_r"] == pytest.approx(pic["pearson_r"])
+    assert set(replicated["outcome"]) <= set(REPLICATION_OUTCOMES)
 
     with drawn_figures() as figures:
         index = build_report(found["results"], study=scored_study, verdict=found["verdict"], diagnostics=None,
@@ -185,6 +205,13 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
     assert "Against Score(A) across 3 tasks, PIC r = " in text
     assert pd.read_csv(tables / "reference_correlations.csv")["Quantity"].iloc[0] == "PIC"
     assert (index.parent / "figures" / "reference_scatter.png").stat().st_size > 1000
+    # the published values and correlations beside ours, and a sentence for each primary metric
+    printed = pd.read_csv(tables / "published_printed.csv")
+    assert printed["Task"].tolist() == ["cart", "pend"]
+    assert printed["PIC"].iloc[1] == f"{metrics['pend']['pic']:.3f} (3.700)"
+    assert pd.read_csv(tables / "replications.csv")["Outcome"].str.split(":").str[0].isin(REPLICATION_OUTCOMES).all()
+    for metric, r in (("POIC", "0.807"), ("PIC", "-0.295")):
+        assert f"{metric} against Score(A): a paper prints r = {r}" in parse_text(index)
 
 
 def test_the_methods_give_directions_of_the_computed_metrics_only_in_one_wording(pair):

@@ -19,7 +19,8 @@ from taskcomplexity.report.labels import TaskStyle, task_styles
 from taskcomplexity.study_data import Study
 
 DIAGNOSTIC_FILES = ("null", "null_summary", "bins_sweep", "subsample_sweep", "estimators", "batches")
-VERDICT_FILES = ("verdict", "summary", "references", "correlations", "values", "samples", "welch", "information")
+VERDICT_FILES = ("verdict", "summary", "references", "correlations", "values", "samples", "welch", "information",
+                 "replications")
 SAC_FILE = "sac_per_seed"
 
 

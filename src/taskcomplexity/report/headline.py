@@ -12,7 +12,7 @@ from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue, significant_int
 from taskcomplexity.report.verdict_tables import survival_tables
 from taskcomplexity.verdict.judge import SURVIVAL
-from taskcomplexity.verdict.references import reference_label
+from taskcomplexity.verdict.references import CONFIDENCE, on_values, reference_label
 
 
 def _count(summary: pd.DataFrame, metric: str) -> dict[str, int]:
@@ -74,7 +74,7 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
     """
     verdict, summary, registry = data.verdict["verdict"], data.verdict["summary"], data.registry
     if verdict.empty:
-        correlated = reference_sentences(data)
+        correlated = replication_sentences(data) + reference_sentences(data)
         if correlated:
             return correlated + ["The study gives no relation (easier, harder, kind) to judge, so there is no "
                                  "verdict by relation."]
@@ -95,7 +95,7 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
         sentences.append(f"The empirical order of training ({registry.label(first['metric'])}) agrees with "
                          f"{int(first['agreements'])} of the {plural(judged, 'relation')} it could judge.")
     sentences += resolve_sentences(data)
-    sentences += reference_sentences(data)
+    sentences += replication_sentences(data) + reference_sentences(data)
     sentences += [survival_sentence(quantity, table) for quantity, table in survival_tables(data).items()]
     return sentences
 
@@ -389,10 +389,44 @@ def _bins(data: StudyData) -> int | None:
     return found.pop() if len(found) == 1 and 0 not in found else None
 
 
+def replication_sentences(data: StudyData) -> list[str]:
+    """One sentence per primary metric whose correlation with a reference score the study's published table prints
+    (the table's first reference): the published r, ours with its bootstrap interval, on the tasks where the metric
+    carries information and net of its null, and the outcome (:mod:`taskcomplexity.verdict.replication`)."""
+    table = data.verdict.get("replications")
+    if table is None or table.empty:
+        return []
+    primary = [m.name for m in data.registry if m.primary]
+    sentences = []
+    for _, rows in table.groupby("table", sort=False):
+        first = rows[(rows["reference"] == rows["reference"].iloc[0]) & rows["quantity"].isin(primary)]
+        for _, r in first.iterrows():
+            label = data.registry.label(r["metric"])
+            ours = f"here r = {num(r['pearson_r'], 2)} ("
+            if np.isfinite(r["pearson_low"]):
+                ours += (f"{CONFIDENCE * 100:.0f} % interval over resampled policies {num(r['pearson_low'], 2)} to "
+                         f"{num(r['pearson_high'], 2)}; ")
+            ours += f"p = {pvalue(r['pearson_p'])}) across {plural(int(r['tasks']), 'task')}"
+            if np.isfinite(r["informative_tasks"]):
+                k = int(r["informative_tasks"])
+                ours += (f", r = {num(r['informative_r'], 2)} on the {plural(k, 'task')} where {label} carries "
+                         "information" if np.isfinite(r["informative_r"]) else
+                         f"; {label} carries information on {of_total(k, int(r['tasks']), 'task')}")
+            if np.isfinite(r["net_r"]):
+                ours += f", r = {num(r['net_r'], 2)}" + (
+                    f" ({num(r['net_low'], 2)} to {num(r['net_high'], 2)})" if np.isfinite(r["net_low"]) else "") + \
+                    " net of its null"
+            sentences.append(
+                f"{label} against {reference_label(r['reference'])}: {data.study.published.source} prints r = "
+                f"{num(r['published_r'], 3)} (p = {pvalue(r['published_p'])}); {ours}. {r['outcome'].capitalize()}: "
+                f"{r['why']}.")
+    return sentences
+
+
 def reference_sentences(data: StudyData) -> list[str]:
     """One sentence per reference score: the primary metrics' Pearson r with it, and the measure most
     correlated with it (from the verdict's ``correlations``)."""
-    correlated, registry = data.verdict["correlations"], data.registry
+    correlated, registry = on_values(data.verdict["correlations"]), data.registry
     metrics = correlated[(correlated["quantity"] == correlated["metric"]) & correlated["pearson_r"].notna()]
     sentences = []
     for reference, rows in metrics.groupby("reference", sort=False):

@@ -25,15 +25,18 @@ from taskcomplexity.report.verdict_tables import (
     correlation_display,
     headline_metrics,
     outcome_words,
+    published_values_display,
     reasons_shown,
     reference_table,
+    replication_display,
     summary_display,
     survival_tables,
     verdict_display,
     verdict_matrix,
 )
 from taskcomplexity.report.writer import Writer, left_out, panels_left_out
-from taskcomplexity.verdict.references import reference_label
+from taskcomplexity.verdict.references import CONFIDENCE, reference_label
+from taskcomplexity.verdict.replication import MEANINGS
 
 SCORE = "score"
 """The metric on the vertical axes of the score scatter (when registered)."""
@@ -89,6 +92,35 @@ def scatter_block(writer: Writer, table: pd.DataFrame, styles, *, y: tuple[str, 
                          caption + across + after + panels_left_out(gaps))
 
 
+def published_blocks(writer: Writer, data: StudyData) -> list:
+    """The study's published tables with ours beside them, and its published correlations beside ours."""
+    published = data.study.published
+    if published is None or not published.tables:
+        return []
+    scale = (f"N = {published.policies:,} policies × M = {published.episodes:,} episodes, B = {published.bins:,} "
+             f"bins")
+    blocks = []
+    for name, table in published.tables.items():
+        if any(t in table.values for t in data.tasks):
+            blocks.append(writer.table(
+                published_values_display(data, name), f"published_{name}",
+                f"Ours beside {published.source}, {table.source}.",
+                f"Each cell: ours (published). Theirs are at {scale}; ours at this report's scale and on this "
+                "study's simulators, so levels compare loosely and the order of the tasks strictly. Ours are "
+                "whole-sample estimates; Score(A) and Score(R) use our random policies' r_min, r_max and r_mean."))
+    if len(data.verdict["replications"]):
+        blocks.append(writer.table(
+            replication_display(data), "replications", f"Published correlations beside ours ({published.source}).",
+            "Pearson r (two-sided p) across tasks on each metric's easiness (a published r on a value is turned to "
+            "easiness: the sign flips where lower is easier). Our interval: 2.5–97.5 % percentiles of r over the "
+            "bootstrap resamples of the policies, with the reference scores held at their whole-sample values. "
+            "Informative tasks only: the tasks whose value exceeds its permutation null and sits below its "
+            "ceiling. Net of the null: each value minus the mean of its permutation null. Ours holds when p < "
+            f"{1 - CONFIDENCE:g} and its interval is clear of 0 on the published side. Outcomes: "
+            + "; ".join(f"{name}: {meaning}" for name, meaning in MEANINGS.items()) + "."))
+    return blocks
+
+
 def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
     """The verdict box's tables: the relation × metric matrix and the per-metric summary."""
     blocks = []
@@ -117,6 +149,7 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
             "Pearson r (two-sided p) and Spearman ρ across tasks between each reference score and each metric's "
             "easiness (its value, negated when lower is easier) or each entropy as it is. With a handful of "
             "tasks only |r| near 1 is evidence."))
+        blocks += published_blocks(writer, data)
         first = references["reference"].iloc[0]
         scored = data.metrics.merge(references[references["reference"] == first][["task", "value"]]
                                     .rename(columns={"value": first}), on="task", how="left")

@@ -36,7 +36,7 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report.format import MISSING, mean_sd, num, plural
 from taskcomplexity.report.outcomes import OUTCOME_DISPLAY
 from taskcomplexity.report.tables import write_table
-from taskcomplexity.verdict.references import reference_label
+from taskcomplexity.verdict.references import on_values, reference_label
 
 JOB_FILE = "study.json"
 """What a study job of a multirun writes into its Hydra job directory."""
@@ -81,7 +81,7 @@ def sweep_tables(jobs: Sequence[dict], *, registry: Registry = DEFAULT_REGISTRY)
         v = pd.read_parquet(verdict / "values.parquet").rename(columns={"metric": "quantity"})
         r = pd.read_parquet(verdict / "references.parquet").rename(columns={"reference": "quantity"})
         values.append(pd.concat([t for t in (v, r) if not t.empty], ignore_index=True).assign(cell=cell))
-        c = pd.read_parquet(verdict / "correlations.parquet")
+        c = on_values(pd.read_parquet(verdict / "correlations.parquet"))
         correlated.append(c[c["quantity"] == c["metric"]].assign(cell=cell))
         judged = pd.read_parquet(verdict / "verdict.parquet")
         verdicts.append(judged[["metric", "easier", "harder", "kind", "outcome", "pvalue"]].assign(cell=cell))

@@ -1,5 +1,5 @@
 """Display tables of the verdict artefact: the relation × metric matrix, the summary, survival, the full
-table, the reference scores and the correlations with them."""
+table, the reference scores and the correlations with them, and the published numbers beside ours."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ import numpy as np
 import pandas as pd
 
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import MISSING, num, percent, policies_needed, pvalue
+from taskcomplexity.report.format import MISSING, num, percent, plural, policies_needed, pvalue
 from taskcomplexity.report.labels import kind_label
 from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, UNINFORMATIVE_REASONS, mark, uninformative_reasons
 from taskcomplexity.verdict import by_relation
-from taskcomplexity.verdict.references import reference_label
+from taskcomplexity.verdict.references import on_values, reference_label
 
 SYMBOLS = {outcome: shown.mark for outcome, shown in OUTCOME_DISPLAY.items()}
 """Outcome → its matrix mark (from :data:`~taskcomplexity.report.outcomes.OUTCOME_DISPLAY`)."""
@@ -158,7 +158,7 @@ def summary_display(data: StudyData) -> pd.DataFrame:
             table["Undefined"] = summary["undefined"]
     for column in [c for c in summary.columns if c.startswith("kendall_tau_")]:
         table[f"τ {column.removeprefix('kendall_tau_')}"] = summary[column].map(lambda x: num(x, 2))
-    correlated = data.verdict["correlations"]
+    correlated = on_values(data.verdict["correlations"])
     for reference in dict.fromkeys(correlated["reference"]):
         chosen = correlated[(correlated["reference"] == reference) & (correlated["quantity"] == correlated["metric"])]
         cells = {q: r_p(r, p) for q, r, p in zip(chosen["quantity"], chosen["pearson_r"], chosen["pearson_p"],
@@ -202,7 +202,7 @@ def reference_table(data: StudyData) -> pd.DataFrame:
 
 def correlation_display(data: StudyData) -> pd.DataFrame:
     """Pearson r (p) and Spearman ρ of every metric and shown detail with every reference score, across tasks."""
-    correlated = data.verdict["correlations"]
+    correlated = on_values(data.verdict["correlations"])
     references = list(dict.fromkeys(correlated["reference"]))
     rows = []
     for quantity, group in correlated.groupby("quantity", sort=False):
@@ -217,6 +217,56 @@ def correlation_display(data: StudyData) -> pd.DataFrame:
                 row[f"ρ with {reference_label(reference)}"] = num(c["spearman_r"], 2)
         row["Tasks"] = int(group["tasks"].max())
         rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def published_values_display(data: StudyData, name: str) -> pd.DataFrame:
+    """Per task of the study's published table ``name``: each quantity it prints, ours (published).
+
+    Ours are the whole-sample values of the metrics artefact (a metric or a shown detail) or the verdict's reference
+    scores (Score(A), Score(R)); a cell is ``ours (published)``, with ours to the published number's decimals."""
+    table = data.study.published.tables[name]
+    scores = data.verdict["references"].set_index(["task", "reference"])["value"]
+    metrics = data.metrics.set_index("task")
+    rows = []
+    for task in [t for t in data.tasks if t in table.values]:
+        row = {"Task": data.name(task)}
+        for quantity in table.quantities:
+            if not any(quantity in values for values in table.values.values()):
+                continue
+            if (task, quantity) in scores.index:
+                ours = float(scores.loc[(task, quantity)])
+            else:
+                ours = float(metrics.loc[task, quantity]) if quantity in metrics.columns else np.nan
+            printed = table.values[task].get(quantity)
+            label = reference_label(quantity) if quantity in set(data.verdict["references"]["reference"]) \
+                else quantity_label(data, quantity)
+            row[label] = num(ours) if printed is None else f"{num(ours, like=printed)} ({num(printed)})"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def replication_display(data: StudyData) -> pd.DataFrame:
+    """Every published correlation beside ours: r (p) printed, ours with its bootstrap interval, on the
+    informative tasks, net of the null, and the outcome (:mod:`taskcomplexity.verdict.replication`)."""
+    rows = []
+    for _, r in data.verdict["replications"].iterrows():
+        interval = (f" [{num(r['pearson_low'], 2)}, {num(r['pearson_high'], 2)}]"
+                    if np.isfinite(r["pearson_low"]) else "")
+        net = (f"{num(r['net_r'], 2)}" + (f" [{num(r['net_low'], 2)}, {num(r['net_high'], 2)}]"
+                                          if np.isfinite(r["net_low"]) else "") + f" ({pvalue(r['net_p'])})"
+               if np.isfinite(r["net_r"]) else MISSING)
+        informative = MISSING
+        if np.isfinite(r["informative_tasks"]):
+            tasks = plural(int(r["informative_tasks"]), "task")
+            informative = (f"{r_p(r['informative_r'], r['informative_p'])}, {tasks}" if np.isfinite(r["informative_r"])
+                           else f"{tasks}: too few")
+        rows.append({"Quantity": quantity_label(data, r["quantity"]), "With": reference_label(r["reference"]),
+                     "Published r (p)": f"{num(r['published_r'], 3)} ({pvalue(r['published_p'])})",
+                     "Ours r [interval] (p)": r_p(r["pearson_r"], r["pearson_p"]).replace(" (", interval + " (", 1),
+                     "Tasks": int(r["tasks"]) if np.isfinite(r["tasks"]) else MISSING,
+                     "Informative tasks only": informative, "Net of the null": net,
+                     "Outcome": f"{r['outcome']}: {r['why']}"})
     return pd.DataFrame(rows)
 
 

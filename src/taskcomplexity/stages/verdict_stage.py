@@ -10,12 +10,18 @@ Outputs under ``<cache>/verdict/<key>/``:
 - ``references.parquet`` (``task, reference, value``): the study's reference scores, and Score(A) and
   Score(R) when it gives algorithm scores (:mod:`taskcomplexity.verdict.references`);
 - ``correlations.parquet``: Pearson and Spearman r (with p) of every metric (by its easiness) and
-  every shown detail (e.g. H(R)) with each reference score, across tasks (empty without references);
+  every shown detail (e.g. H(R)) with each reference score, across tasks (empty without references); for a
+  bootstrapped metric the percentile interval of r over its bootstrap draws, and for a metric the information
+  check judges, r again on its informative tasks only and on its value net of its null
+  (:func:`taskcomplexity.verdict.references.correlations`);
 - ``values.parquet`` / ``samples.parquet``: the tidy values (``task, metric, value``) judged and
   the samples of their Welch tests;
 - ``welch.parquet``: Welch's test between every ordered pair of tasks for every metric with at least
   2 finite samples on each of at least 2 tasks (``metric, task_a, task_b, statistic, pvalue,
   significant``): the matrices of the paper's significance tests;
+- ``replications.parquet``: each correlation the study's published tables print, beside ours on every basis,
+  with its outcome (reproduced, estimator bias, not reproduced, unresolved at this budget;
+  :mod:`taskcomplexity.verdict.replication`);
 - ``information.parquet``: per (metric, task) whose metric declares a null or a ceiling, whether the
   value carries information, its null (mean, sd, repeats, p), the null's share of the value, and its
   ceiling ln N (:mod:`taskcomplexity.verdict.information`); a relation judged on a value without
@@ -58,16 +64,17 @@ from taskcomplexity.verdict import (
     uninformative,
 )
 from taskcomplexity.verdict.references import correlations, quantities, reference_scores
+from taskcomplexity.verdict.replication import replications
 
 log = logging.getLogger(__name__)
 
 STAGE = "verdict"
-NUMERICS = Numerics(version=4, modules=(
+NUMERICS = Numerics(version=5, modules=(
     "verdict.gather", "verdict.judge", "verdict.information", "verdict.references", "metrics.registry",
     "metrics.batches", "metrics.sac", "metrics.statistics", "stages.verdict_stage",
 ))
 FILES = ("verdict.parquet", "summary.parquet", "references.parquet", "correlations.parquet", "values.parquet",
-         "samples.parquet", "welch.parquet", "information.parquet")
+         "samples.parquet", "welch.parquet", "information.parquet", "replications.parquet")
 SAC_FILE = "sac_per_seed.parquet"
 
 
@@ -100,6 +107,8 @@ def verdict_key(
         "orders": {name: list(order) for name, order in study.orders.items()},
         "reference": dict(study.reference),
         "algorithm_scores": {t: [a.max, a.average] for t, a in study.algorithm_scores.items()},
+        "published": {name: {r: {q: list(v) for q, v in row.items()} for r, row in table.correlations.items()}
+                      for name, table in (study.published.tables if study.published else {}).items()},
         "alpha": float(alpha),
         "registry": registry.signature(),
         "information": {m.name: m.information.identity() for m in registry if m.information is not None},
@@ -108,6 +117,23 @@ def verdict_key(
         if keys:
             payload[stage] = dict(keys)
     return stage_key(STAGE, NUMERICS, payload)
+
+
+def gather_draws(metrics: Mapping[str, Artefact], *, registry: Registry) -> pd.DataFrame:
+    """``task``, ``metric``, ``resample``, ``value``: the bootstrap draws over policies of the metrics stage's
+    bootstrapped metrics (its ``bootstrap.parquet``), for the intervals of their correlations."""
+    names = [m.name for m in registry.of_stage(METRICS) if m.bootstrapped]
+    parts = []
+    for task, artefact in metrics.items():
+        path = artefact.file("bootstrap.parquet")
+        if not names or not path.exists():
+            continue
+        draws = pd.read_parquet(path)
+        present = [n for n in names if n in draws.columns]
+        if present:
+            parts.append(draws.melt(id_vars="resample", value_vars=present, var_name="metric").assign(task=task))
+    columns = ["task", "metric", "resample", "value"]
+    return pd.concat(parts, ignore_index=True)[columns] if parts else pd.DataFrame(columns=columns)
 
 
 def run_verdict_stage(
@@ -192,12 +218,14 @@ def run_verdict_stage(
                             nulls=centres)
         references = reference_scores(study, bounds)
         correlated = correlations(quantities(values, gather_details(tables, registry=registry), registry=registry),
-                                  references)
+                                  references, draws=gather_draws(metrics, registry=registry), information=checked,
+                                  registry=registry)
+        replicated = replications(correlated, study, registry=registry)
         welch = pairwise_welch(samples, registry=registry, alpha=alpha)
         for name, frame in (("verdict.parquet", table), ("summary.parquet", summary),
                             ("references.parquet", references), ("correlations.parquet", correlated),
                             ("values.parquet", values), ("samples.parquet", samples), ("welch.parquet", welch),
-                            ("information.parquet", checked)):
+                            ("information.parquet", checked), ("replications.parquet", replicated)):
             frame.to_parquet(directory / name, index=False)
         if per_seed is not None:
             per_seed.to_parquet(directory / SAC_FILE, index=False)

@@ -12,6 +12,8 @@ judge
     Every (metric, relation) outcome, per-metric counts, Kendall's τ.
 references
     Reference scores (the study's own, Score(A) and Score(R)) and every metric's correlation with them.
+replication
+    A paper's printed correlations beside ours: reproduced, estimator bias, not reproduced or unresolved.
 """
 
 from taskcomplexity.verdict.gather import gather, gather_details, gather_policies

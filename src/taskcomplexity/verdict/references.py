@@ -52,9 +52,16 @@ REFERENCES = (
 """Every kind of reference score, in table order."""
 
 REFERENCE_COLUMNS = ("task", "reference", "value")
-CORRELATION_COLUMNS = ("quantity", "metric", "reference", "tasks", "pearson_r", "pearson_p", "spearman_r",
-                       "spearman_p")
-"""Columns of :func:`correlations` (``metric``: the registered metric the quantity is or belongs to)."""
+BASES = ("value", "informative", "net of null")
+"""What a correlation is computed on: every task's value; only the tasks whose value carries information
+(:mod:`taskcomplexity.verdict.information`); the value minus the mean of its permutation null."""
+CONFIDENCE = 0.95
+"""Level of the percentile bootstrap interval of a Pearson r."""
+CORRELATION_COLUMNS = ("quantity", "metric", "reference", "basis", "tasks", "pearson_r", "pearson_p", "pearson_low",
+                       "pearson_high", "resamples", "spearman_r", "spearman_p")
+"""Columns of :func:`correlations` (``metric``: the registered metric the quantity is or belongs to; ``basis``: one of
+:data:`BASES`; ``pearson_low``/``pearson_high``: the percentile interval of r over the bootstrap resamples of the
+policies, of which ``resamples`` were used, NaN without them)."""
 
 
 def reference_label(name: str) -> str:
@@ -132,8 +139,9 @@ def quantities(values: pd.DataFrame, details: pd.DataFrame | None, *, registry: 
     return frame.iloc[np.argsort(rank, kind="stable")].reset_index(drop=True)
 
 
-def correlations(quantities_table: pd.DataFrame, references: pd.DataFrame,
-                 names: Iterable[str] | None = None) -> pd.DataFrame:
+def correlations(quantities_table: pd.DataFrame, references: pd.DataFrame, names: Iterable[str] | None = None,
+                 *, draws: pd.DataFrame | None = None, information: pd.DataFrame | None = None,
+                 registry: Registry | None = None) -> pd.DataFrame:
     """Pearson and Spearman r (with p) of every quantity with every reference score, across tasks.
 
     Parameters
@@ -144,30 +152,86 @@ def correlations(quantities_table: pd.DataFrame, references: pd.DataFrame,
         Output of :func:`reference_scores`.
     names : iterable of str, optional
         The references to use (default: every one present).
+    draws : pandas.DataFrame, optional
+        ``task``, ``metric``, ``resample``, ``value``: bootstrap draws of metrics over the policies (as values, not
+        easiness). A metric with draws on every correlated task gets a percentile interval of its Pearson r: r of
+        the reference scores (held at their whole-sample values) with resample b of every task, over b. Each task's
+        draws are first centred on its whole-sample value (shifted by the value minus their mean): resampling
+        policies with replacement biases a plug-in entropy estimate by an amount that differs between tasks, and the
+        interval is of the estimate's spread, not of that bias.
+    information : pandas.DataFrame, optional
+        The :func:`~taskcomplexity.verdict.information.information` table. Each metric it checks gets the rows of
+        basis ``informative`` (its tasks whose value carries information) and, when it has a null, ``net of
+        null`` (its value minus the null's mean, draws likewise).
+    registry : Registry, optional
+        The metrics' directions (needed with ``draws`` or ``information``).
 
     Returns
     -------
     pandas.DataFrame, columns :data:`CORRELATION_COLUMNS`
-        One row per (quantity, reference), over the tasks where both are finite (``tasks`` counts
+        One row per (quantity, reference, basis), over the tasks where both are finite (``tasks`` counts
         them); r and p are NaN with fewer than 3 tasks or a constant side.
     """
-    rows = []
     present = list(dict.fromkeys(references["reference"]))
     chosen = [n for n in (names if names is not None else present) if n in present]
-    finite = quantities_table[np.isfinite(quantities_table["value"].to_numpy(dtype=np.float64))]
-    for (quantity, metric), group in finite.groupby(["quantity", "metric"], sort=False):
-        by_task = group.set_index("task")["value"]
-        for name in chosen:
-            ref = references[references["reference"] == name].set_index("task")["value"].astype(float)
-            ref = ref[np.isfinite(ref.to_numpy())]
-            tasks = [t for t in ref.index if t in by_task.index]
-            x = ref.loc[tasks].to_numpy(dtype=np.float64)
-            y = by_task.loc[tasks].to_numpy(dtype=np.float64)
-            row = {"quantity": quantity, "metric": metric, "reference": name, "tasks": len(tasks)}
-            for test_name, test in (("pearson", scipy.stats.pearsonr), ("spearman", scipy.stats.spearmanr)):
-                row[f"{test_name}_r"], row[f"{test_name}_p"] = correlation(test, x, y)
-            rows.append(row)
+    sign = {m.name: 1.0 if m.higher_is_easier else -1.0 for m in registry} if registry is not None else {}
+    resampled = {}
+    if draws is not None and not draws.empty:
+        for metric, group in draws.groupby("metric", sort=False):
+            wide = group.pivot_table(index="resample", columns="task", values="value", aggfunc="first")
+            resampled[metric] = wide * sign.get(metric, 1.0)
+    checked = information if information is not None and not information.empty else None
+    rows = []
+    for (quantity, metric), group in quantities_table.groupby(["quantity", "metric"], sort=False):
+        by_task = group.set_index("task")["value"].astype(float)
+        own = resampled.get(metric) if quantity == metric else None
+        if own is not None:  # each task's draws centred on its whole-sample value: their spread, not their bias
+            own = own - own.mean() + by_task.reindex(own.columns)
+        bases = [("value", by_task, own)]
+        if checked is not None and quantity == metric:
+            mine = checked[checked["metric"] == metric].set_index("task")
+            if len(mine):
+                keep = [t for t in by_task.index if t in mine.index and bool(mine.loc[t, "informative"])]
+                bases.append(("informative", by_task.loc[keep], None if own is None else own[[
+                    t for t in keep if t in own.columns]]))
+                null = mine["null_mean"].astype(float) * sign.get(metric, 1.0)
+                if mine["null_share"].notna().any():
+                    net = (by_task - null.reindex(by_task.index)).dropna()
+                    bases.append(("net of null", net, None if own is None else own.sub(null, axis=1)))
+        for basis, values, resamples in bases:
+            for name in chosen:
+                rows.append({"quantity": quantity, "metric": metric, "reference": name, "basis": basis,
+                             **_correlate(values, references, name, resamples)})
     return pd.DataFrame(rows, columns=list(CORRELATION_COLUMNS))
+
+
+def _correlate(values: pd.Series, references: pd.DataFrame, name: str, resamples: pd.DataFrame | None) -> dict:
+    """Pearson (with its bootstrap interval) and Spearman of ``values`` with reference ``name``, over the tasks
+    where both are finite."""
+    ref = references[references["reference"] == name].set_index("task")["value"].astype(float)
+    ref = ref[np.isfinite(ref.to_numpy())]
+    values = values[np.isfinite(values.to_numpy(dtype=np.float64))]
+    tasks = [t for t in ref.index if t in values.index]
+    x = ref.loc[tasks].to_numpy(dtype=np.float64)
+    y = values.loc[tasks].to_numpy(dtype=np.float64)
+    row = {"tasks": len(tasks), "pearson_low": float("nan"), "pearson_high": float("nan"), "resamples": 0}
+    for test_name, test in (("pearson", scipy.stats.pearsonr), ("spearman", scipy.stats.spearmanr)):
+        row[f"{test_name}_r"], row[f"{test_name}_p"] = correlation(test, x, y)
+    if resamples is not None and np.isfinite(row["pearson_r"]) and set(tasks) <= set(resamples.columns):
+        matrix = resamples[tasks].to_numpy(dtype=np.float64)
+        matrix = matrix[np.isfinite(matrix).all(axis=1)]
+        rs = np.array([correlation(scipy.stats.pearsonr, x, draw)[0] for draw in matrix])
+        rs = rs[np.isfinite(rs)]
+        if rs.size >= 2:
+            tail = (1 - CONFIDENCE) / 2
+            row["pearson_low"], row["pearson_high"] = (float(q) for q in np.quantile(rs, [tail, 1 - tail]))
+            row["resamples"] = int(rs.size)
+    return row
+
+
+def on_values(correlated: pd.DataFrame) -> pd.DataFrame:
+    """The rows of a :func:`correlations` table on every task's value (basis ``value``)."""
+    return correlated[correlated["basis"] == "value"] if "basis" in correlated.columns else correlated
 
 
 def correlation(test, x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
