@@ -52,9 +52,11 @@ class Scratch:
         return self.run(*words[1:], *more, timeout=timeout)
 
     def pytest(self, *paths: str, timeout: float = 300) -> subprocess.CompletedProcess:
-        """The tests ``paths`` of the copy (its own conftest and pyproject), run as ``make test`` runs them: on two
-        pytest-xdist workers, a file per worker (what a worker reports to the controller must cross that line)."""
-        return self.run("-m", "pytest", "-q", "-p", "no:cacheprovider", "-n", "2", "--dist", "loadfile",
+        """The tests ``paths`` of the copy (its own conftest and pyproject), run as ``make test`` runs them: on a
+        pytest-xdist worker, a file at a time (what a worker reports to the controller must cross that line). One
+        worker, not one per core: the suite around this test already keeps every core busy, and each worker costs
+        a start of torch and the package."""
+        return self.run("-m", "pytest", "-q", "-p", "no:cacheprovider", "-n", "1", "--dist", "loadfile",
                         "-m", "not slow", *paths, timeout=timeout)
 
 

@@ -70,8 +70,8 @@ log = logging.getLogger(__name__)
 
 STAGE = "verdict"
 NUMERICS = Numerics(version=5, modules=(
-    "verdict.gather", "verdict.judge", "verdict.information", "verdict.references", "metrics.registry",
-    "metrics.batches", "metrics.sac", "metrics.statistics", "stages.verdict_stage",
+    "verdict.gather", "verdict.judge", "verdict.information", "verdict.references", "verdict.replication",
+    "metrics.registry", "metrics.batches", "metrics.sac", "metrics.statistics", "stages.verdict_stage",
 ))
 FILES = ("verdict.parquet", "summary.parquet", "references.parquet", "correlations.parquet", "values.parquet",
          "samples.parquet", "welch.parquet", "information.parquet", "replications.parquet")

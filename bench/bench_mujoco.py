@@ -1,0 +1,346 @@
+"""MuJoCo per-step cost: RWG's gym backend against gymnasium and the bare simulator, side by side in one run.
+
+    python bench/bench_mujoco.py                           # the five MuJoCo presets, medians of 3
+    python bench/bench_mujoco.py --tasks Hopper-v5 --steps 2000 --policies 4 --episodes 8 --chunk-policies 2 \\
+        --max-steps 100 --repeats 1                        # one task, small budgets
+
+Needs the mujoco extra (``pip install -e '.[mujoco]'``); without it the script says so in one line and exits 0.
+
+For each of gymnasium's MuJoCo tasks that the project has presets for (``conf/task/{ant,half_cheetah,hopper,
+walker2d,humanoid}.yaml``), the CPU-µs (process CPU time: every thread, and the child processes waited for) and
+wall-µs per environment step of
+
+- ``floor``: bare ``mujoco.mj_step(model, data)``, ``frame_skip`` times per environment step, on the env's own
+  ``env.unwrapped.model``/``data``, with uniform random controls in the actuators' range written to
+  ``data.ctrl``; ``mj_resetData`` where the gymnasium run below ended an episode (same controls, same lengths:
+  otherwise a fallen body lies in contact with the floor for ever and costs what no episode costs);
+- ``floor, policies' actions``: the same bare steps on the actions the rwg run's policies took (one chunk's
+  episodes, recorded by a wrapper, replayed open loop from ``mj_resetData``): tanh-squashed N(0, I) MLPs act
+  mostly at the bounds and move the bodies otherwise than uniform controls, so the gap between the two floor
+  rows is physics, not overhead;
+- ``gymnasium``: ``gymnasium.make(id).step(action)`` in a plain loop on the same controls, ``reset()`` when an
+  episode ends;
+- ``rwg``: the project's own path, ``taskcomplexity.rwg.run_rwg(GymTask(id), network, N(0, I), RWGSettings(N, M,
+  workers=…), "gym")`` (what ``pipelines/rwg.py`` and the RWG stage run for a gymnasium task), with ``workers=1``
+  (in this process) and with ``workers=`` the usable cores (a pool of processes: their CPU time is counted
+  too, so CPU-µs/step covers every core); the steps are those it took (its ``steps`` array). A run has fixed
+  costs: each process builds its pool of environments (``task.make_env()`` per slot in flight) once, and the
+  workers start and stop. ``steady`` rows take them out by difference: the same run on 2N policies (same
+  chunks, same processes, twice as many of them) minus the run on N, per step of the difference: the cost
+  per step a long run (thousands of chunks per pool) pays. The fixed cost is printed, with the part the env
+  setup explains (CPU per ``make_env``, measured apart, × envs in flight × processes).
+
+The goal the issue sets: the RWG path within 1.5× of the bare simulator per step (CPU), with every core busy
+(CPU-s / wall-s ≥ 90 % of the usable cores). Each task says whether it meets it, judged on the all-cores
+steady rows; that is a printed fact, never an exit status. Figures are medians over the repeats (the
+four paths interleaved in each repeat); a first small run of each path is not timed. The machine may be
+shared: CPU-µs are disturbed less by other processes than wall-µs, and CPU-s / wall-s below 1 per process
+means this run waited for a core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from taskcomplexity.cores import usable_cores
+from taskcomplexity.tasks.gym_task import MUJOCO_EXTRA
+
+TASKS = ("Ant-v5", "HalfCheetah-v5", "Hopper-v5", "Walker2d-v5", "Humanoid-v5")
+"""gymnasium's MuJoCo ids of the project's presets (conf/task/ant.yaml, half_cheetah, hopper, walker2d, humanoid)."""
+GOAL_RATIO = 1.5
+"""The issue's goal: the RWG path's CPU per step at most this many times the bare simulator's."""
+BUSY = 0.9
+"""… with every core busy: CPU-s / wall-s at least this share of the usable cores."""
+
+
+def clocks() -> tuple[float, float]:
+    """(CPU seconds of this process's threads and of its waited-for children, wall seconds)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime, time.perf_counter()
+
+
+@dataclass
+class Timing:
+    """One timed run: the environment steps it took and what they cost."""
+
+    steps: int
+    cpu: float
+    wall: float
+
+    def __sub__(self, other: Timing) -> Timing:
+        return Timing(self.steps - other.steps, self.cpu - other.cpu, self.wall - other.wall)
+
+
+def timed(run) -> Timing:
+    """``run() -> steps``, timed by :func:`clocks`."""
+    cpu, wall = clocks()
+    steps = run()
+    cpu_after, wall_after = clocks()
+    return Timing(steps, cpu_after - cpu, wall_after - wall)
+
+
+@dataclass
+class Row:
+    """Medians over the repeats of one path: per-step CPU and wall µs, and CPU-s / wall-s."""
+
+    steps: int
+    cpu_us: float
+    wall_us: float
+    busy: float
+
+    @staticmethod
+    def of(timings: list[Timing]) -> Row:
+        return Row(int(statistics.median(t.steps for t in timings)),
+                   statistics.median(t.cpu / t.steps * 1e6 for t in timings),
+                   statistics.median(t.wall / t.steps * 1e6 for t in timings),
+                   statistics.median(t.cpu / t.wall for t in timings))
+
+
+def gym_loop(env, actions: np.ndarray, ends: np.ndarray, seed: int) -> int:
+    """``env.step`` on each action, ``reset`` when an episode ends (recorded in ``ends``)."""
+    env.reset(seed=seed)
+    for i, action in enumerate(actions):
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+            ends[i] = True
+    return len(actions)
+
+
+def floor_loop(env, controls: np.ndarray, ends: np.ndarray) -> int:
+    """Bare ``mj_step`` × frame_skip per control row on the env's own model and data; reset where ``ends``."""
+    import mujoco
+
+    unwrapped = env.unwrapped
+    model, data, skip = unwrapped.model, unwrapped.data, unwrapped.frame_skip
+    step, reset, ctrl = mujoco.mj_step, mujoco.mj_resetData, data.ctrl
+    reset(model, data)
+    for control, end in zip(controls, ends, strict=True):
+        ctrl[:] = control
+        for _ in range(skip):
+            step(model, data)
+        if end:
+            reset(model, data)
+    return len(controls)
+
+
+def recorded_actions(env_id: str, max_steps: int, network, prior, settings, policies: int) -> list[np.ndarray]:
+    """The actions the gym backend's policies 0 … ``policies``−1 take in their episodes (one array per episode)."""
+    import gymnasium
+
+    from taskcomplexity.rwg import simulate_chunk
+    from taskcomplexity.tasks.gym_task import GymTask
+
+    episodes: list[list[np.ndarray]] = []
+
+    class Recorder(gymnasium.Wrapper):
+        def reset(self, **kwargs):
+            episodes.append([])
+            return self.env.reset(**kwargs)
+
+        def step(self, action):
+            episodes[-1].append(np.array(action, dtype=np.float64))
+            return self.env.step(action)
+
+    class RecordingTask(GymTask):
+        def make_env(self, **kwargs):
+            return Recorder(super().make_env(**kwargs))
+
+    simulate_chunk(RecordingTask(env_id, max_steps=max_steps), network, prior, settings, 0, policies, backend="gym")
+    return [np.array(actions) for actions in episodes if actions]
+
+
+def replay_loop(env, episodes: list[np.ndarray]) -> int:
+    """Bare ``mj_step`` × frame_skip per recorded action, each episode from ``mj_resetData``."""
+    import mujoco
+
+    unwrapped = env.unwrapped
+    model, data, skip = unwrapped.model, unwrapped.data, unwrapped.frame_skip
+    step, reset, ctrl = mujoco.mj_step, mujoco.mj_resetData, data.ctrl
+    for actions in episodes:
+        reset(model, data)
+        for control in actions:
+            ctrl[:] = control
+            for _ in range(skip):
+                step(model, data)
+    return sum(len(actions) for actions in episodes)
+
+
+def setup_seconds(task, envs: int) -> float:
+    """Median CPU seconds of one ``task.make_env()`` (and its close), over ``envs`` of them."""
+    seconds = []
+    for _ in range(envs):
+        started = time.process_time()
+        env = task.make_env()
+        env.close()
+        seconds.append(time.process_time() - started)
+    return statistics.median(seconds)
+
+
+def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> dict:
+    """Every path on one task; prints its table and returns the summary's figures."""
+    import gymnasium
+
+    from taskcomplexity.policies.mlp import PriorSpec
+    from taskcomplexity.rwg import RWGSettings, chunks, run_rwg
+    from taskcomplexity.rwg.gym_backend import slots_per_policy
+    from taskcomplexity.rwg.workers import gym_workers
+    from taskcomplexity.tasks.gym_task import GymTask
+
+    task = GymTask(env_id, max_steps=args.max_steps or None)
+    limit = task.max_steps
+    env = gymnasium.make(env_id, max_episode_steps=limit)
+    unwrapped = env.unwrapped
+    skip, actuators = unwrapped.frame_skip, unwrapped.model.nu
+    rng = np.random.default_rng(args.seed)
+    low, high = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+    controls = rng.uniform(low, high, (args.steps, actuators))
+    actions = controls.astype(env.action_space.dtype)
+    ends = np.zeros(args.steps, dtype=bool)
+    warm = min(args.steps, 100)
+    gym_loop(env, actions[:warm], ends[:warm].copy(), args.seed)
+    floor_loop(env, controls[:warm], ends[:warm])
+
+    def settings(workers: int, policies: int) -> RWGSettings:
+        return RWGSettings(policies=policies, episodes=args.episodes, seed=args.seed,
+                           chunk_policies=args.chunk_policies, workers=workers)
+
+    prior = PriorSpec()
+    run_rwg(task, network, prior, RWGSettings(policies=2, episodes=2, seed=args.seed, workers=1), "gym")  # warm
+    ranges = chunks(task, network, settings(cores, args.policies), "gym")
+    first = ranges[0][1] - ranges[0][0]
+    in_flight = first * slots_per_policy(first, args.episodes)
+    processes = gym_workers(settings(cores, args.policies), len(ranges))
+    doubled = gym_workers(settings(cores, 2 * args.policies), len(chunks(task, network, settings(
+        cores, 2 * args.policies), "gym")))
+    per_env = setup_seconds(task, min(in_flight, args.setup_envs))
+    taken = recorded_actions(env_id, limit, network, prior, settings(1, args.policies), first)
+    replay_loop(env, taken[:2])
+
+    def rwg(workers: int, policies: int) -> int:
+        return int(run_rwg(task, network, prior, settings(workers, policies), "gym").steps.sum())
+
+    runs: dict[str, list[Timing]] = {name: [] for name in ("floor", "replay", "gym", "1", "1x2", "W", "Wx2")}
+    for _ in range(args.repeats):
+        ends[:] = False
+        runs["gym"].append(timed(lambda: gym_loop(env, actions, ends, args.seed)))
+        runs["floor"].append(timed(lambda: floor_loop(env, controls, ends)))
+        runs["replay"].append(timed(lambda: replay_loop(env, taken)))
+        for workers, name in ((1, "1"), (cores, "W")):
+            runs[name].append(timed(lambda w=workers: rwg(w, args.policies)))
+            runs[name + "x2"].append(timed(lambda w=workers: rwg(w, 2 * args.policies)))
+    env.close()
+    episodes_gym = int(ends.sum())
+
+    floor = Row.of(runs["floor"])
+    steady = {name: Row.of([b - a for a, b in zip(runs[name], runs[name + "x2"], strict=True)])
+              for name in ("1", "W")}
+    fixed = {name: statistics.median(t.cpu - steady[name].cpu_us * 1e-6 * t.steps for t in runs[name])
+             for name in ("1", "W")}
+    rows = [
+        (f"floor: mj_step ×{skip}", floor, 1),
+        ("floor, policies' actions", Row.of(runs["replay"]), 1),
+        ("gymnasium.make().step", Row.of(runs["gym"]), 1),
+        (f"rwg N={args.policies}, workers=1", Row.of(runs["1"]), 1),
+        (f"rwg N={args.policies}, workers={cores}", Row.of(runs["W"]), processes),
+        ("rwg steady (2N − N), workers=1", steady["1"], 1),
+        (f"rwg steady (2N − N), workers={cores}", steady["W"], processes if doubled == processes else doubled),
+    ]
+    print(f"\n{env_id}: frame_skip {skip}, {actuators} actuators, observation {task.observation_size}, episodes ≤ "
+          f"{limit} steps (gymnasium's run: {episodes_gym} episodes ended in {args.steps} steps); rwg: N = "
+          f"{args.policies} (and 2N) × M = {args.episodes}, chunks of ≤ {first} policies ({len(ranges)} at N), "
+          f"{in_flight} envs in flight per process; the policies' actions: {len(taken)} episodes of the first "
+          f"chunk; medians of {args.repeats}")
+    head = (f"{'path':<34}{'steps':>9}{'CPU-µs/step':>13}{'×floor':>8}{'wall-µs/step':>14}{'CPU-s/wall-s':>14}"
+            f"{'processes':>11}")
+    print(head)
+    print("-" * len(head))
+    for name, row, procs in rows:
+        print(f"{name:<34}{row.steps:>9,}{row.cpu_us:>13.1f}{row.cpu_us / floor.cpu_us:>8.2f}{row.wall_us:>14.1f}"
+              f"{row.busy:>14.2f}{procs:>11}")
+    setup = in_flight * per_env
+    print(f"fixed cost of a run (its CPU minus steady × steps): {fixed['1']:.2f} CPU-s with workers=1, "
+          f"{fixed['W']:.2f} with workers={cores}; env setup explains {setup:.2f} and {processes * setup:.2f} "
+          f"({per_env * 1e3:.2f} ms CPU per task.make_env(), median of {min(in_flight, args.setup_envs)}, × "
+          f"{in_flight} envs × processes)")
+    if doubled != processes:
+        print(f"note: the run on 2N used {doubled} processes, the one on N {processes}: the steady rows mix them")
+    ratio, busy = steady["W"].cpu_us / floor.cpu_us, steady["W"].busy
+    fast, full = ratio <= GOAL_RATIO, busy >= BUSY * cores
+    print(f"goal (rwg within {GOAL_RATIO}× of the floor per step, all {cores} cores busy), on the steady workers="
+          f"{cores} row: CPU ×floor {ratio:.2f} ({'≤' if fast else '>'} {GOAL_RATIO}), {busy:.2f} of {cores} cores "
+          f"busy ({'≥' if full else '<'} {BUSY:.0%}): {'met' if fast and full else 'not met'}", flush=True)
+    return {"task": env_id, "floor": floor, "rows": [row for _, row, _ in rows], "met": fast and full}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
+    parser.add_argument("--steps", type=int, default=5000, help="environment steps of the floor and gymnasium runs")
+    parser.add_argument("--policies", type=int, default=2, help="N of the rwg runs")
+    parser.add_argument("--episodes", type=int, default=256, help="M of the rwg runs")
+    parser.add_argument("--chunk-policies", type=int, default=0,
+                        help="rwg.chunk_policies (0: the project's choice, ~256 envs in flight per process)")
+    parser.add_argument("--max-steps", type=int, default=0,
+                        help="episode limit of every path (0: the env's own, 1000 for these tasks)")
+    parser.add_argument("--network", default="pic_h2_64", choices=("pic_h2_64", "mlp32"),
+                        help="the policy family (pic_h2_64: study=furuta_benchmark's; mlp32: the default arms')")
+    parser.add_argument("--setup-envs", type=int, default=16, help="make_env() calls timed for the env setup")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+
+    try:
+        import mujoco
+    except ImportError:
+        print(f"bench_mujoco: skipped, MuJoCo is not installed: this bench needs the mujoco extra ({MUJOCO_EXTRA})")
+        return 0
+
+    from taskcomplexity.policies.mlp import NetworkSpec
+
+    warnings: dict[str, int] = {}
+    # MuJoCo warns on stderr each time it compiles some of gymnasium's XML files (e.g. a deprecated attribute):
+    # once per env made, hundreds per pool. Counted here (and silenced in the forked workers) and printed once.
+    mujoco.set_mju_user_warning(lambda text: warnings.__setitem__(text, warnings.get(text, 0) + 1))
+    network = (NetworkSpec(hidden=(64, 64), activation="tanh", output="linear") if args.network == "pic_h2_64"
+               else NetworkSpec())
+    cores = usable_cores()
+    print(f"MuJoCo {mujoco.__version__}, gymnasium {__import__('gymnasium').__version__}, Python "
+          f"{sys.version.split()[0]}; {cores} usable cores (of {os.cpu_count()}), load average "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}; network {args.network}, prior N(0, I)")
+    print(f"per environment step: CPU-µs (this process's threads + its worker processes) and wall-µs; ×floor = "
+          f"CPU-µs / the floor's. Goal: rwg ≤ {GOAL_RATIO}× the floor, CPU-s/wall-s ≥ {BUSY:.0%} of {cores} cores")
+    results = [bench_task(env_id, args, network, cores) for env_id in args.tasks]
+
+    print(f"\nsummary: CPU-µs/step of the floor, ×floor (CPU-µs/step ÷ the floor's) of the other paths, "
+          f"wall-µs/step of rwg, CPU-s/wall-s of the steady rwg on {cores} cores; pol. = the floor on the policies' "
+          f"actions, rwg = the run on N, steady = (2N − N)")
+    head = (f"{'task':<16}{'floor':>8}{'pol.':>7}{'gym':>7}{'rwg×1':>7}{'rwg×' + str(cores):>7}{'steady×1':>10}"
+            f"{'steady×' + str(cores):>10}{'wall×1':>9}{'wall×' + str(cores):>9}{'busy×' + str(cores):>8}"
+            f"{'goal':>10}")
+    print(head)
+    print("-" * len(head))
+    for r in results:
+        floor, (_, replay, gym, one, every, steady_one, steady_every) = r["floor"], r["rows"]
+        print(f"{r['task']:<16}{floor.cpu_us:>8.1f}{replay.cpu_us / floor.cpu_us:>7.2f}{gym.cpu_us / floor.cpu_us:>7.2f}{one.cpu_us / floor.cpu_us:>7.2f}"
+              f"{every.cpu_us / floor.cpu_us:>7.2f}{steady_one.cpu_us / floor.cpu_us:>10.2f}"
+              f"{steady_every.cpu_us / floor.cpu_us:>10.2f}{steady_one.wall_us:>9.1f}{steady_every.wall_us:>9.1f}"
+              f"{steady_every.busy:>8.2f}{'met' if r['met'] else 'not met':>10}")
+    met = sum(r["met"] for r in results)
+    print(f"{met} of {len(results)} tasks meet the goal (steady rwg within {GOAL_RATIO}× of the floor's CPU per step, "
+          f"with ≥ {BUSY:.0%} of {cores} cores busy)")
+    for text, count in warnings.items():
+        print(f"MuJoCo warned {count}× in this process (silenced): {text}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
