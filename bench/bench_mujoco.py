@@ -14,10 +14,10 @@ wall-µs per environment step of
   ``env.unwrapped.model``/``data``, with uniform random controls in the actuators' range written to
   ``data.ctrl``; ``mj_resetData`` where the gymnasium run below ended an episode (same controls, same lengths:
   otherwise a fallen body lies in contact with the floor for ever and costs what no episode costs);
-- ``floor, policies' actions``: the same bare steps on the actions the rwg run's policies took (one chunk's
-  episodes, recorded by a wrapper, replayed open loop from ``mj_resetData``): tanh-squashed N(0, I) MLPs act
-  mostly at the bounds and move the bodies otherwise than uniform controls, so the gap between the two floor
-  rows is physics, not overhead;
+- ``floor, policies' actions``: the same bare steps on the actions the rwg runs' policies take (their first
+  episodes, recorded by a wrapper, replayed open loop from ``mj_resetData``, at most ``--steps``): tanh-squashed
+  N(0, I) MLPs act mostly at the bounds and move the bodies otherwise than uniform controls, so the gap between
+  the two floor rows is physics, not overhead;
 - ``gymnasium``: ``gymnasium.make(id).step(action)`` in a plain loop on the same controls, ``reset()`` when an
   episode ends;
 - ``rwg``: the project's own path, ``taskcomplexity.rwg.run_rwg(GymTask(id), network, N(0, I), RWGSettings(N, M,
@@ -132,30 +132,42 @@ def floor_loop(env, controls: np.ndarray, ends: np.ndarray) -> int:
     return len(controls)
 
 
-def recorded_actions(env_id: str, max_steps: int, network, prior, settings, policies: int) -> list[np.ndarray]:
-    """The actions the gym backend's policies 0 … ``policies``−1 take in their episodes (one array per episode)."""
+def recorded_actions(env_id: str, max_steps: int, network, prior, seed: int, policies: int, episodes: int,
+                     steps: int) -> list[np.ndarray]:
+    """The actions the gym backend's policies 0 … ``policies``−1 take in their first ``episodes`` episodes (as in
+    any run of the same seed), one array per episode, the first ``steps`` of them in the order they ran."""
     import gymnasium
 
-    from taskcomplexity.rwg import simulate_chunk
+    from taskcomplexity.rwg import RWGSettings, simulate_chunk
     from taskcomplexity.tasks.gym_task import GymTask
 
-    episodes: list[list[np.ndarray]] = []
+    log: list[list[np.ndarray]] = []
 
     class Recorder(gymnasium.Wrapper):
+        episode: list[np.ndarray] = []
+
         def reset(self, **kwargs):
-            episodes.append([])
+            self.episode = []
+            log.append(self.episode)
             return self.env.reset(**kwargs)
 
         def step(self, action):
-            episodes[-1].append(np.array(action, dtype=np.float64))
+            self.episode.append(np.array(action, dtype=np.float64))
             return self.env.step(action)
 
     class RecordingTask(GymTask):
         def make_env(self, **kwargs):
             return Recorder(super().make_env(**kwargs))
 
+    settings = RWGSettings(policies=max(2, policies), episodes=max(2, episodes), seed=seed)
     simulate_chunk(RecordingTask(env_id, max_steps=max_steps), network, prior, settings, 0, policies, backend="gym")
-    return [np.array(actions) for actions in episodes if actions]
+    taken, total = [], 0
+    for actions in (np.array(actions) for actions in log if actions):
+        taken.append(actions[:steps - total])
+        total += len(taken[-1])
+        if total >= steps:
+            break
+    return taken
 
 
 def replay_loop(env, episodes: list[np.ndarray]) -> int:
@@ -222,7 +234,8 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
     doubled = gym_workers(settings(cores, 2 * args.policies), len(chunks(task, network, settings(
         cores, 2 * args.policies), "gym")))
     per_env = setup_seconds(task, min(in_flight, args.setup_envs))
-    taken = recorded_actions(env_id, limit, network, prior, settings(1, args.policies), first)
+    taken = recorded_actions(env_id, limit, network, prior, args.seed, 2 * args.policies, min(args.episodes, 4),
+                             args.steps)
     replay_loop(env, taken[:2])
 
     def rwg(workers: int, policies: int) -> int:
@@ -257,8 +270,8 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
     print(f"\n{env_id}: frame_skip {skip}, {actuators} actuators, observation {task.observation_size}, episodes ≤ "
           f"{limit} steps (gymnasium's run: {episodes_gym} episodes ended in {args.steps} steps); rwg: N = "
           f"{args.policies} (and 2N) × M = {args.episodes}, chunks of ≤ {first} policies ({len(ranges)} at N), "
-          f"{in_flight} envs in flight per process; the policies' actions: {len(taken)} episodes of the first "
-          f"chunk; medians of {args.repeats}")
+          f"{in_flight} envs in flight per process; the policies' actions: {len(taken)} episodes; medians of "
+          f"{args.repeats}")
     head = (f"{'path':<34}{'steps':>9}{'CPU-µs/step':>13}{'×floor':>8}{'wall-µs/step':>14}{'CPU-s/wall-s':>14}"
             f"{'processes':>11}")
     print(head)
@@ -330,9 +343,9 @@ def main() -> int:
     print("-" * len(head))
     for r in results:
         floor, (_, replay, gym, one, every, steady_one, steady_every) = r["floor"], r["rows"]
-        print(f"{r['task']:<16}{floor.cpu_us:>8.1f}{replay.cpu_us / floor.cpu_us:>7.2f}{gym.cpu_us / floor.cpu_us:>7.2f}{one.cpu_us / floor.cpu_us:>7.2f}"
-              f"{every.cpu_us / floor.cpu_us:>7.2f}{steady_one.cpu_us / floor.cpu_us:>10.2f}"
-              f"{steady_every.cpu_us / floor.cpu_us:>10.2f}{steady_one.wall_us:>9.1f}{steady_every.wall_us:>9.1f}"
+        ratios = "".join(f"{row.cpu_us / floor.cpu_us:>{width}.2f}" for row, width in
+                         ((replay, 7), (gym, 7), (one, 7), (every, 7), (steady_one, 10), (steady_every, 10)))
+        print(f"{r['task']:<16}{floor.cpu_us:>8.1f}{ratios}{steady_one.wall_us:>9.1f}{steady_every.wall_us:>9.1f}"
               f"{steady_every.busy:>8.2f}{'met' if r['met'] else 'not met':>10}")
     met = sum(r["met"] for r in results)
     print(f"{met} of {len(results)} tasks meet the goal (steady rwg within {GOAL_RATIO}× of the floor's CPU per step, "
