@@ -230,6 +230,18 @@ def test_a_dm_control_id_needs_the_dmc_extra_or_runs_flattened_with_it():
     assert isinstance(task.observation_space, spaces.Box) and task.observation_size == 6 and task.action_size == 2
 
 
+def test_mujocos_warnings_go_to_the_log_once_not_to_standard_error(capfd, caplog, tmp_path, monkeypatch):
+    pytest.importorskip("shimmy", reason="the dmc extra is not installed")
+    monkeypatch.chdir(tmp_path)  # MuJoCo's default handler would write MUJOCO_LOG.TXT here
+    caplog.set_level("DEBUG", logger="taskcomplexity.tasks.gym_task")
+    task = GymTask("shimmy:dm_control/cheetah-run-v0", max_steps=1000)
+    for _ in range(3):
+        task.make_env().reset(seed=0)
+    assert "settotalmass" not in capfd.readouterr().err
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    assert sum("settotalmass" in r.getMessage() for r in caplog.records) <= 1
+
+
 def test_rwg_workers_is_refused_below_zero():
     with pytest.raises(ConfigError, match=r"rwg.workers must be an integer >= 0 \(0 = one per core\), got -1"):
         RWGSettings(workers=-1).validate()

@@ -7,12 +7,14 @@ change to this package.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import functools
 import hashlib
 import importlib
 import importlib.util
 import inspect
+import logging
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -23,6 +25,8 @@ import gymnasium
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.tasks.base import check_space, flat_size
+
+log = logging.getLogger(__name__)
 
 MUJOCO_EXTRA = "pip install -e '.[mujoco]'"
 EXTRAS = {"shimmy": "pip install -e '.[dmc]'"}
@@ -131,6 +135,8 @@ class GymTask:
         in the space's order, ``Discrete`` parts one-hot), as DM Control's tasks reach gymnasium through Shimmy."""
         arguments = {**self.kwargs, **kwargs}
         env_id = self.env_id if ":" not in self.env_id else self.spec.id
+        if _simulates_with_mujoco(self.env_id, self.spec):
+            _route_mujoco_warnings()
         try:
             env = gymnasium.make(env_id, max_episode_steps=self.max_steps, disable_env_checker=True, **arguments)
             if isinstance(env.observation_space, (gymnasium.spaces.Dict, gymnasium.spaces.Tuple)):
@@ -176,6 +182,35 @@ def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
         except ImportError as err:
             raise ConfigError(f"task.env_id={env_id} needs MuJoCo, which is not installed: {MUJOCO_EXTRA}") from err
     return spec
+
+
+def _simulates_with_mujoco(env_id: str, spec: gymnasium.envs.registration.EnvSpec) -> bool:
+    """Whether the env runs on MuJoCo: gymnasium's MuJoCo tasks, and DM Control's through Shimmy."""
+    entry = spec.entry_point if isinstance(spec.entry_point, str) else ""
+    return "mujoco" in entry or "dm_control" in entry or env_id.partition(":")[0] == "shimmy"
+
+
+@functools.cache
+def _route_mujoco_warnings() -> None:
+    """Send MuJoCo's warnings to this module's log, each distinct one once, at debug level, instead of standard
+    error and ``MUJOCO_LOG.TXT``. DM Control's models use a compiler attribute MuJoCo 3 deprecates, which it would
+    otherwise print once for every environment made: hundreds of lines in a run, none of which concern its
+    numbers. DM Control sets a handler of its own when imported (to absl's log), so it is imported first and this
+    one replaces it; MuJoCo's errors keep their handler."""
+    try:
+        import mujoco
+    except ImportError:
+        return
+    with contextlib.suppress(ImportError):
+        import dm_control.mujoco.wrapper.core  # noqa: F401  (sets its handler on import)
+    seen: set[str] = set()
+
+    def warning(message: str) -> None:
+        if message not in seen:
+            seen.add(message)
+            log.debug("MuJoCo: %s", message)
+
+    mujoco.set_mju_user_warning(warning)
 
 
 def _source_digest(spec: gymnasium.envs.registration.EnvSpec) -> str:
