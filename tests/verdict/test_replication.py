@@ -12,7 +12,13 @@ import scipy.stats
 from taskcomplexity.metrics import DEFAULT_REGISTRY
 from taskcomplexity.study_data import study_from_config
 from taskcomplexity.verdict.references import correlations
-from taskcomplexity.verdict.replication import MEANINGS, REPLICATION_COLUMNS, outcome, replications
+from taskcomplexity.verdict.replication import (
+    MEANINGS,
+    REPLICATION_COLUMNS,
+    fisher_interval,
+    outcome,
+    replications,
+)
 
 STUDIES = Path(__file__).resolve().parents[2] / "src" / "taskcomplexity" / "conf" / "study"
 NAN = float("nan")
@@ -35,8 +41,12 @@ def row(r, p, low=NAN, high=NAN, *, published=(0.8, 0.001), informative=(NAN, NA
     (row(0.8, 0.001, 0.6, 0.9, informative=(2, NAN, NAN), net=(0.7, 0.01, 0.5, 0.85)), True, True, "estimator bias"),
     # does not hold on the informative tasks
     (row(0.8, 0.001, 0.6, 0.9, informative=(8, 0.2, 0.6), net=(0.7, 0.01, 0.5, 0.85)), True, True, "estimator bias"),
-    # ours excludes the published r
-    (row(0.1, 0.7, -0.2, 0.4, informative=(10, 0.1, 0.7)), True, True, "not reproduced"),
+    # ours excludes the published r over the policies and across the tasks
+    (dict(row(0.1, 0.7, -0.2, 0.4, informative=(10, 0.1, 0.7)), tasks_low=-0.3, tasks_high=0.5), True, True,
+     "not reproduced"),
+    # ... over the policies only: too few tasks to tell
+    (dict(row(0.1, 0.7, -0.2, 0.4, informative=(10, 0.1, 0.7)), tasks_low=-0.6, tasks_high=0.9), True, True,
+     "unresolved at this budget"),
     # ours spans 0 and the published r
     (row(0.5, 0.1, -0.1, 0.9, informative=(10, 0.5, 0.1)), True, True, "unresolved at this budget"),
     # too few informative tasks to tell
@@ -121,3 +131,11 @@ def test_each_published_correlation_follows_from_the_published_values_to_their_p
                 assert found.pvalue == pytest.approx(p, abs=5e-3), (study, quantity, reference)
                 checked += 1
     assert checked >= 14  # Furuta et al.'s row: 7 quantities × Score(A), Score(R)
+
+
+def test_fishers_interval_is_scipys():
+    x = np.arange(13.0)
+    y = x + np.random.default_rng(1).normal(0, 4, 13)
+    found = scipy.stats.pearsonr(x, y)
+    expected = found.confidence_interval(0.95)
+    assert fisher_interval(found.statistic, 13) == pytest.approx((expected.low, expected.high))

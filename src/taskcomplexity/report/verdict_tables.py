@@ -224,7 +224,7 @@ def published_values_display(data: StudyData, name: str) -> pd.DataFrame:
     """Per task of the study's published table ``name``: each quantity it prints, ours (published).
 
     Ours are the whole-sample values of the metrics artefact (a metric or a shown detail) or the verdict's reference
-    scores (Score(A), Score(R)); a cell is ``ours (published)``, with ours to the published number's decimals."""
+    scores (Score(A), Score(R)); a cell is ``ours (published)``."""
     table = data.study.published.tables[name]
     scores = data.verdict["references"].set_index(["task", "reference"])["value"]
     metrics = data.metrics.set_index("task")
@@ -241,7 +241,7 @@ def published_values_display(data: StudyData, name: str) -> pd.DataFrame:
             printed = table.values[task].get(quantity)
             label = reference_label(quantity) if quantity in set(data.verdict["references"]["reference"]) \
                 else quantity_label(data, quantity)
-            row[label] = num(ours) if printed is None else f"{num(ours, like=printed)} ({num(printed)})"
+            row[label] = num(ours) if printed is None else f"{num(ours)} ({num(printed)})"
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -14,10 +14,11 @@ side. The outcome of a published correlation that is significant (p < ``1 − CO
 - ``estimator bias``: ours holds on the values but not on the informative tasks (or fewer than 3 carry
   information) or not net of the null: the correlation is the estimator's bias, which varies with the task's
   returns, not the information the metric measures;
-- ``not reproduced``: ours does not hold and its interval excludes the published r (or, without an interval, its
-  r has the other sign at p below the level);
-- ``unresolved at this budget``: ours does not hold and cannot exclude the published r (its interval spans both),
-  or fewer than 3 tasks carry information.
+- ``not reproduced``: ours does not hold and excludes the published r both over the policy resamples (its
+  percentile interval) and across the tasks (Fisher's interval of r, ``tasks_low``/``tasks_high``), or without an
+  interval, its r has the other sign at p below the level;
+- ``unresolved at this budget``: ours does not hold and cannot exclude the published r on both counts, or fewer
+  than 3 tasks carry information.
 
 A published correlation that is not significant is ``reproduced`` when ours is not significant either (on the
 values, with at least 3 tasks carrying information), and ``not reproduced`` when ours holds in either direction.
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import scipy.stats
 
 from taskcomplexity.metrics.registry import Registry
 from taskcomplexity.study_data import Study
@@ -39,17 +41,19 @@ MEANINGS = {
                   "is not significant, neither is ours)",
     "estimator bias": "ours holds on the values but not on the tasks where the metric carries information (or too few "
                       "do) or not net of the null",
-    "not reproduced": "ours excludes the published r, or is significant where it is not",
-    "unresolved at this budget": f"ours cannot tell the published r from 0, or fewer than {MIN_TASKS} tasks carry "
-                                 "information",
+    "not reproduced": "ours excludes the published r over resampled policies and across the tasks, or is "
+                      "significant where it is not",
+    "unresolved at this budget": f"ours cannot tell the published r from 0, or cannot exclude it on both counts, or "
+                                 f"fewer than {MIN_TASKS} tasks carry information",
 }
 """Every outcome of :func:`replications`, in the order the report lists them, with what it means."""
 REPLICATION_OUTCOMES = tuple(MEANINGS)
 REPLICATION_COLUMNS = ("table", "reference", "quantity", "metric", "published_r", "published_p", "tasks", "pearson_r",
-                       "pearson_p", "pearson_low", "pearson_high", "informative_tasks", "informative_r",
-                       "informative_p", "net_r", "net_p", "net_low", "net_high", "outcome", "why")
-"""Columns of :func:`replications` (``informative_*``, ``net_*``: the same correlation on the informative tasks and
-net of the null; NaN where that basis does not exist)."""
+                       "pearson_p", "pearson_low", "pearson_high", "tasks_low", "tasks_high", "informative_tasks",
+                       "informative_r", "informative_p", "net_r", "net_p", "net_low", "net_high", "outcome", "why")
+"""Columns of :func:`replications` (``pearson_low``/``_high``: the interval of our r over the policy resamples;
+``tasks_low``/``_high``: Fisher's interval of r across the tasks; ``informative_*``, ``net_*``: the same correlation
+on the informative tasks and net of the null; NaN where that basis does not exist)."""
 
 
 def replications(correlated: pd.DataFrame, study: Study, *, registry: Registry) -> pd.DataFrame:
@@ -86,6 +90,7 @@ def replications(correlated: pd.DataFrame, study: Study, *, registry: Registry) 
                        "published_r": sign * r_pub, "published_p": p_pub}
                 row.update(_basis(bases, "value", ("tasks", "pearson_r", "pearson_p", "pearson_low", "pearson_high"),
                                   ("tasks", "pearson_r", "pearson_p", "pearson_low", "pearson_high")))
+                row["tasks_low"], row["tasks_high"] = fisher_interval(row["pearson_r"], row["tasks"])
                 row.update(_basis(bases, "informative", ("tasks", "pearson_r", "pearson_p"),
                                   ("informative_tasks", "informative_r", "informative_p")))
                 row.update(_basis(bases, "net of null", ("pearson_r", "pearson_p", "pearson_low", "pearson_high"),
@@ -102,6 +107,16 @@ def _basis(bases: pd.DataFrame, basis: str, columns: tuple[str, ...], names: tup
     found = bases.loc[basis]
     found = found.iloc[0] if isinstance(found, pd.DataFrame) else found
     return {name: float(found[column]) for column, name in zip(columns, names, strict=True)}
+
+
+def fisher_interval(r: float, tasks: float) -> tuple[float, float]:
+    """The :data:`CONFIDENCE` interval of a Pearson r over ``tasks`` tasks from Fisher's z (the tasks a sample of
+    tasks): tanh(artanh r ± z / √(n − 3)); NaN with 3 tasks or fewer."""
+    if not (np.isfinite(r) and np.isfinite(tasks)) or tasks <= 3:
+        return float("nan"), float("nan")
+    half = scipy.stats.norm.ppf((1 + CONFIDENCE) / 2) / np.sqrt(tasks - 3)
+    centre = np.arctanh(np.clip(r, -1 + 1e-15, 1 - 1e-15))
+    return float(np.tanh(centre - half)), float(np.tanh(centre + half))
 
 
 def holds(r: float, p: float, low: float, high: float, side: float) -> bool:
@@ -140,7 +155,12 @@ def outcome(row: dict, *, checked: bool, has_null: bool) -> tuple[str, str]:
     low, high = row["pearson_low"], row["pearson_high"]
     if np.isfinite(low) and np.isfinite(high):
         if not low <= row["published_r"] <= high:
-            return "not reproduced", "our interval excludes the published r"
+            across = row.get("tasks_low", np.nan), row.get("tasks_high", np.nan)
+            if np.isfinite(across[0]) and not across[0] <= row["published_r"] <= across[1]:
+                return "not reproduced", (f"ours excludes the published r over resampled policies and across the tasks "
+                                          f"(Fisher's interval {across[0]:.2f} to {across[1]:.2f})")
+            return "unresolved at this budget", ("ours excludes the published r over resampled policies but not across "
+                                                 "the tasks")
         if low <= 0 <= high:
             return "unresolved at this budget", "our interval spans both 0 and the published r"
         return "unresolved at this budget", "our interval holds the published r, but r is not significant across " \
