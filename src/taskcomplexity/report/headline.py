@@ -397,6 +397,7 @@ def replication_sentences(data: StudyData) -> list[str]:
     if table is None or table.empty:
         return []
     primary = [m.name for m in data.registry if m.primary]
+    scale = _scale(data)
     sentences = []
     for _, rows in table.groupby("table", sort=False):
         first = rows[(rows["reference"] == rows["reference"].iloc[0]) & rows["quantity"].isin(primary)]
@@ -416,10 +417,11 @@ def replication_sentences(data: StudyData) -> list[str]:
                 ours += f", r = {num(r['net_r'], 2)}" + (
                     f" ({num(r['net_low'], 2)} to {num(r['net_high'], 2)})" if np.isfinite(r["net_low"]) else "") + \
                     " net of its null"
+            budget = f" at N = {scale[0]:,} × M = {scale[1]:,}" if scale else ""
             sentences.append(
                 f"{label} against {reference_label(r['reference'])}: {data.study.published.source} prints r = "
-                f"{num(r['published_r'], 3)} (p = {pvalue(r['published_p'])}); {ours}. {r['outcome'].capitalize()}: "
-                f"{r['why']}.")
+                f"{num(r['published_r'], 3)} (p = {pvalue(r['published_p'])}); {ours}. {r['outcome'].capitalize()}"
+                f"{budget}: {r['why']}.")
     return sentences
 
 
