@@ -209,13 +209,14 @@ def test_a_dict_observation_is_flattened_into_one_box_and_runs():
         gymnasium.registry.pop("DictObservations-v0")
 
 
-def test_a_task_pickles_without_its_spec_and_finds_it_again():
+def test_a_task_pickles_without_its_spec_and_finds_it_again_but_keeps_its_spaces():
     import pickle
 
     task = GymTask("Pendulum-v1")
     assert task.observation_size == 3 and "spec" in task.__dict__  # both cached
     copy = pickle.loads(pickle.dumps(task))
     assert "spec" not in copy.__dict__ and copy == task and copy.spec.id == "Pendulum-v1"
+    assert "_spaces" in copy.__dict__ and copy.observation_space == task.observation_space  # no env made to read them
 
 
 def test_a_dm_control_id_needs_the_dmc_extra_or_runs_flattened_with_it():

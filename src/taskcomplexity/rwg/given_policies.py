@@ -7,6 +7,8 @@
 
 from __future__ import annotations
 
+from threadpoolctl import threadpool_limits
+
 from taskcomplexity.policies.mlp import PolicyBatch
 from taskcomplexity.rwg.backends import resolve_backend
 from taskcomplexity.rwg.chunking import ReturnChunk
@@ -35,5 +37,6 @@ def run_policies(task: Task, policies: PolicyBatch, *, seed: int, episodes: int,
         The obstacle task's contact handling on the batched backend.
     """
     backend = resolve_backend(task, backend)
-    return run_batch(task, policies, backend, seed=seed, episodes=episodes,
-                     common_initial_states=common_initial_states, contacts=contacts)
+    with threadpool_limits(limits=1, user_api="blas"):  # as run_rwg: BLAS threads would spin against the workers
+        return run_batch(task, policies, backend, seed=seed, episodes=episodes,
+                         common_initial_states=common_initial_states, contacts=contacts)

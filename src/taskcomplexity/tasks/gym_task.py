@@ -71,9 +71,10 @@ class GymTask:
                               f"got {self.max_steps}")
 
     def __getstate__(self) -> dict:
-        """The fields alone: a worker process finds the spec and the spaces again (an id registered by a plugin,
-        like Shimmy's DM Control tasks, has an entry point that cannot be pickled)."""
-        return {k: v for k, v in self.__dict__.items() if k not in ("spec", "_spaces")}
+        """The fields and the spaces, not the spec: a worker process finds the spec again (an id registered by a
+        plugin, like Shimmy's DM Control tasks, has an entry point that cannot be pickled), and keeps the spaces,
+        which it would otherwise read by making one environment per chunk."""
+        return {k: v for k, v in self.__dict__.items() if k != "spec"}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
@@ -136,7 +137,7 @@ class GymTask:
         arguments = {**self.kwargs, **kwargs}
         env_id = self.env_id if ":" not in self.env_id else self.spec.id
         if _simulates_with_mujoco(self.env_id, self.spec):
-            _route_mujoco_warnings()
+            _route_mujoco_warnings(dm_control=_is_dm_control(self.env_id, self.spec))
         try:
             env = gymnasium.make(env_id, max_episode_steps=self.max_steps, disable_env_checker=True, **arguments)
             if isinstance(env.observation_space, (gymnasium.spaces.Dict, gymnasium.spaces.Tuple)):
@@ -184,25 +185,32 @@ def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
     return spec
 
 
+def _is_dm_control(env_id: str, spec: gymnasium.envs.registration.EnvSpec) -> bool:
+    """Whether the env is one of DM Control's, through Shimmy."""
+    entry = spec.entry_point if isinstance(spec.entry_point, str) else ""
+    return "dm_control" in entry or "dm_control" in spec.id or env_id.partition(":")[0] == "shimmy"
+
+
 def _simulates_with_mujoco(env_id: str, spec: gymnasium.envs.registration.EnvSpec) -> bool:
     """Whether the env runs on MuJoCo: gymnasium's MuJoCo tasks, and DM Control's through Shimmy."""
     entry = spec.entry_point if isinstance(spec.entry_point, str) else ""
-    return "mujoco" in entry or "dm_control" in entry or env_id.partition(":")[0] == "shimmy"
+    return "mujoco" in entry or _is_dm_control(env_id, spec)
 
 
 @functools.cache
-def _route_mujoco_warnings() -> None:
+def _route_mujoco_warnings(*, dm_control: bool) -> None:
     """Send MuJoCo's warnings to this module's log, each distinct one once, at debug level, instead of standard
     error and ``MUJOCO_LOG.TXT``. DM Control's models use a compiler attribute MuJoCo 3 deprecates, which it would
     otherwise print once for every environment made: hundreds of lines in a run, none of which concern its
-    numbers. DM Control sets a handler of its own when imported (to absl's log), so it is imported first and this
-    one replaces it; MuJoCo's errors keep their handler."""
+    numbers. DM Control sets a handler of its own when imported (to absl's log), so for its tasks it is imported
+    first and this one replaces it (once per process for each kind); MuJoCo's errors keep their handler."""
     try:
         import mujoco
     except ImportError:
         return
-    with contextlib.suppress(ImportError):
-        import dm_control.mujoco.wrapper.core  # noqa: F401  (sets its handler on import)
+    if dm_control:
+        with contextlib.suppress(ImportError):
+            import dm_control.mujoco.wrapper.core  # noqa: F401  (sets its handler on import)
     seen: set[str] = set()
 
     def warning(message: str) -> None:
