@@ -8,7 +8,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas test test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-bag test test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -54,6 +54,13 @@ atlas: $(STAMP) ## Furuta et al.'s 13 tasks (classic control, MuJoCo, DM Control
 # The 28 cells of Furuta et al.'s sweep: 7 architectures × 4 priors (each cell is one study=classic_control job).
 CLASSIC_NETWORKS := pic_linear,pic_h1_4,pic_h1_32,pic_h1_64,pic_h2_4,pic_h2_32,pic_h2_64
 CLASSIC_PRIORS := normal,uniform,xavier_normal_tanh,xavier_uniform_tanh
+
+# Furuta et al.'s bag of 56 policy families on make atlas's study: the 28 cells above × with and without a bias.
+ATLAS_BAG := network=$(CLASSIC_NETWORKS) prior=$(CLASSIC_PRIORS) network.input_bias=false,true
+
+atlas-bag: $(STAMP) ## the 56 cells of Furuta et al.'s bag on make atlas's study as a multirun + its sweep report (a cluster job: ARGS='hydra/launcher=cluster …')
+	$(PY) -m pip install --quiet -e '.[atlas]'
+	$(PY) pipelines/study.py -m experiment=atlas $(ATLAS_BAG) $(ARGS)
 
 classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_control as a multirun + its sweep report (ARGS=… adds overrides, e.g. a launcher)
 	$(PY) pipelines/study.py -m study=classic_control network=$(CLASSIC_NETWORKS) prior=$(CLASSIC_PRIORS) $(ARGS)

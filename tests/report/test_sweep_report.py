@@ -56,6 +56,11 @@ def test_the_sweep_report_tabulates_each_cell_and_the_mean_over_cells(tmp_path, 
     values = pd.read_csv(out / "sweep_values_tidy.csv")
     score_a = values[(values["quantity"] == "score_a") & (values["task"] == "cart")]["value"].to_numpy()
     assert score_a.size == 2 and np.all((score_a > 0) & (score_a <= 1))
+    # the cells as one bag: r across tasks of the means over the cells
+    means = values.groupby(["task", "quantity"])["value"].mean().unstack()
+    bag = pd.read_csv(out / "sweep_bag_correlations.csv").set_index("Metric")
+    expected = np.corrcoef(means["score_a"], means["poic"])[0, 1]
+    assert bag.loc["POIC", "r with Score(A) (p)"].startswith(f"{expected:.2f} (") and bag.loc["POIC", "Tasks"] == 3
     text = readme.read_text(encoding="utf-8")
     assert "Sweep of scored: 2 cells" in text
     # the study gives no relation: no verdict table is written, and the README says why in one line

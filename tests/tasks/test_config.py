@@ -280,3 +280,22 @@ def test_the_atlas_study_is_furutas_thirteen_tasks_with_a_score_each_declared_on
     assert (atlas.published.policies, atlas.published.episodes) == (1000, 1000)  # their protocol, as published
     atlas_budget = compose_config("experiment=atlas")
     assert atlas_budget.study.name == "furuta_benchmark" and not atlas_budget.sac.enabled
+
+
+def test_each_cell_of_the_atlas_bag_reaches_every_task_of_the_study(compose_config, monkeypatch):
+    """make atlas-bag's overrides (network, prior, network.input_bias) win over the study's own family, on every task
+    (here the five classic-control ones, which need no extra)."""
+    import subprocess
+
+    from taskcomplexity.study.plan import study_requests
+
+    recipe = subprocess.run(["make", "-n", "-o", ".venv/.installed", "atlas-bag"], capture_output=True, text=True,
+                            cwd=CONF_DIR.parents[2], check=True).stdout
+    sweep = re.search(r"experiment=atlas (network=\S+ prior=\S+ network\.input_bias=\S+)", recipe).group(1).split()
+    choices = {key: value.split(",") for key, value in (o.split("=", 1) for o in sweep)}
+    assert [len(v) for v in choices.values()] == [7, 4, 2]  # 56 cells
+    typed = ["study=classic_control", "network=pic_h1_4", "prior=uniform", "network.input_bias=true"]
+    monkeypatch.setattr("taskcomplexity.study.plan.user_overrides", lambda: typed)  # as typed on the command line
+    cfg = compose_config(*typed)
+    for _, request in study_requests(cfg):
+        assert request.network.hidden == (4,) and request.network.input_bias and request.prior.kind == "uniform"

@@ -139,3 +139,15 @@ def test_fishers_interval_is_scipys():
     found = scipy.stats.pearsonr(x, y)
     expected = found.confidence_interval(0.95)
     assert fisher_interval(found.statistic, 13) == pytest.approx((expected.low, expected.high))
+
+
+def test_the_rows_pearson_is_scipys():
+    from taskcomplexity.verdict.references import pearson_rows
+
+    rng = np.random.default_rng(2)
+    x, rows = rng.normal(size=7), rng.normal(size=(5, 7))
+    rows[1] = 3.0  # constant: undefined
+    found = pearson_rows(x, rows)
+    assert np.isnan(found[1])
+    for i in (0, 2, 3, 4):
+        assert found[i] == pytest.approx(scipy.stats.pearsonr(x, rows[i]).statistic, abs=1e-12)

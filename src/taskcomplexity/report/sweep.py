@@ -11,6 +11,9 @@ job of a sweep directory and writes, under ``<sweep dir>/sweep_report/``:
 - ``sweep_correlations.{md,tex,csv}``: per cell, every metric's Pearson r with each reference score
   (Score(A), …) across the study's tasks, and the mean ± sd of r over the cells (the original PIC/POIC
   protocol's summary over its 28 architecture × prior cells);
+- ``sweep_bag_correlations.{md,tex,csv}``: every metric's Pearson r with each reference score across the tasks,
+  both averaged over the cells first (the cells as one bag, as the PIC paper's Table 11 treats its 56
+  architectures and priors);
 - ``sweep_values.{md,tex,csv}``: per task, every metric and reference score as mean ± sd over cells;
 - ``sweep_values_tidy.csv`` (cell, task, quantity, value), ``sweep_correlations_tidy.csv`` (cell,
   quantity, reference, r, p, …) and ``sweep_verdict_tidy.csv`` (cell, metric, relation, outcome, p):
@@ -31,12 +34,13 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import scipy.stats
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.report.format import MISSING, mean_sd, num, plural
+from taskcomplexity.report.format import MISSING, mean_sd, num, plural, pvalue
 from taskcomplexity.report.outcomes import OUTCOME_DISPLAY
 from taskcomplexity.report.tables import write_table
-from taskcomplexity.verdict.references import on_values, reference_label
+from taskcomplexity.verdict.references import correlation, on_values, reference_label
 
 JOB_FILE = "study.json"
 """What a study job of a multirun writes into its Hydra job directory."""
@@ -160,6 +164,41 @@ def correlation_table(correlated: pd.DataFrame, *, registry: Registry = DEFAULT_
     return pd.DataFrame(rows)
 
 
+def bag_correlation_table(values: pd.DataFrame, *, registry: Registry = DEFAULT_REGISTRY) -> pd.DataFrame:
+    """Pearson r (p) across tasks between each metric's mean over the cells and each reference score's mean over
+    the cells: the sweep's cells taken as one bag of policy families, as the PIC paper's Table 11 correlates its
+    bag of 56 architectures and priors. No rows without reference scores.
+
+    Parameters
+    ----------
+    values : pandas.DataFrame
+        The sweep's tidy values (:func:`sweep_tables`): metrics by their value, reference scores by name.
+    registry : Registry
+        The metrics (their easiness: a metric where lower is easier is negated, as the cells' correlations are).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``Metric``, then ``r with <reference> (p)`` per reference score, and ``Tasks``.
+    """
+    means = values.groupby(["task", "quantity"], sort=False)["value"].mean().unstack("quantity")
+    references = [q for q in means.columns if q not in registry and reference_label(q) != q]
+    rows = []
+    for metric in registry.order([q for q in means.columns if q in registry]):
+        easiness = means[metric] * (1.0 if registry[metric].higher_is_easier else -1.0)
+        row = {"Metric": registry.label(metric)}
+        tasks = 0
+        for reference in references:
+            keep = np.isfinite(easiness.to_numpy(dtype=float)) & np.isfinite(means[reference].to_numpy(dtype=float))
+            r, p = correlation(scipy.stats.pearsonr, means[reference].to_numpy(dtype=float)[keep],
+                               easiness.to_numpy(dtype=float)[keep])
+            row[f"r with {reference_label(reference)} (p)"] = f"{num(r, 2)} ({pvalue(p)})"
+            tasks = max(tasks, int(keep.sum()))
+        row["Tasks"] = tasks
+        rows.append(row)
+    return pd.DataFrame(rows) if references else pd.DataFrame()
+
+
 def value_table(values: pd.DataFrame, *, registry: Registry = DEFAULT_REGISTRY,
                 labels: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Per task (rows, named by ``labels``), every metric and reference score (columns) as mean ± sd over the
@@ -203,6 +242,11 @@ def write_sweep_report(sweep_dir: Path, *, registry: Registry = DEFAULT_REGISTRY
          f"of {studies}, and its mean ± sd over the cells.",
          "No correlation table: the study gives no reference scores (reference or algorithm_scores) to correlate "
          "the metrics with."),
+        ("sweep_bag_correlations", bag_correlation_table(tables["values"], registry=registry),
+         f"Pearson r (p) across tasks between each metric's easiness and each reference score, both averaged over "
+         f"the {cells} first: the cells as one bag of policy families, as the PIC paper's Table 11 correlates its "
+         "bag of 56 architectures and priors.",
+         "No bag correlation table: the study gives no reference scores to correlate the metrics with."),
         ("sweep_values", value_table(tables["values"], registry=registry, labels=labels),
          f"Every metric (point estimate) and reference score per task: mean ± sd over the {cells}.",
          "No values table: no cell has a metric value."),

@@ -220,13 +220,23 @@ def _correlate(values: pd.Series, references: pd.DataFrame, name: str, resamples
     if resamples is not None and np.isfinite(row["pearson_r"]) and set(tasks) <= set(resamples.columns):
         matrix = resamples[tasks].to_numpy(dtype=np.float64)
         matrix = matrix[np.isfinite(matrix).all(axis=1)]
-        rs = np.array([correlation(scipy.stats.pearsonr, x, draw)[0] for draw in matrix])
+        rs = pearson_rows(x, matrix)
         rs = rs[np.isfinite(rs)]
         if rs.size >= 2:
             tail = (1 - CONFIDENCE) / 2
             row["pearson_low"], row["pearson_high"] = (float(q) for q in np.quantile(rs, [tail, 1 - tail]))
             row["resamples"] = int(rs.size)
     return row
+
+
+def pearson_rows(x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Pearson r of ``x`` (n,) with each row of ``rows`` (B, n), as :func:`scipy.stats.pearsonr` gives it for one
+    row; NaN for a constant row."""
+    dx = x - x.mean()
+    dy = rows - rows.mean(axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = dy @ dx / (np.linalg.norm(dy, axis=1) * np.linalg.norm(dx))
+    return np.clip(r, -1.0, 1.0)
 
 
 def on_values(correlated: pd.DataFrame) -> pd.DataFrame:
