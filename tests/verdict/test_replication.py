@@ -142,6 +142,7 @@ def test_fishers_interval_is_scipys():
 
 
 def test_the_rows_pearson_is_scipys():
+    """The bootstrap interval's r per resample: scipy's to 1e-12 (the order of the sums differs, in the last bits)."""
     from taskcomplexity.verdict.references import pearson_rows
 
     rng = np.random.default_rng(2)

@@ -69,7 +69,7 @@ from taskcomplexity.verdict.replication import replications
 log = logging.getLogger(__name__)
 
 STAGE = "verdict"
-NUMERICS = Numerics(version=6, modules=(
+NUMERICS = Numerics(version=7, modules=(
     "verdict.gather", "verdict.judge", "verdict.information", "verdict.references", "verdict.replication",
     "metrics.registry", "metrics.batches", "metrics.sac", "metrics.statistics", "stages.verdict_stage",
 ))
