@@ -107,7 +107,8 @@ def published_blocks(writer: Writer, data: StudyData) -> list:
                 f"Ours beside {published.source}, {table.source}.",
                 f"Each cell: ours (published). Theirs are at {scale}; ours at this report's scale and on this "
                 "study's simulators, so levels compare loosely and the order of the tasks strictly. Ours are "
-                "whole-sample estimates; Score(A) and Score(R) use our random policies' r_min, r_max and r_mean."))
+                "whole-sample estimates; Score(A) and Score(R) use our random policies' r_min, r_max and r_mean.",
+                wrap=True))
     if len(data.verdict["replications"]):
         blocks.append(writer.table(
             replication_display(data), "replications", f"Published correlations beside ours ({published.source}).",
@@ -117,7 +118,7 @@ def published_blocks(writer: Writer, data: StudyData) -> list:
             "Informative tasks only: the tasks whose value exceeds its permutation null and sits below its "
             "ceiling. Net of the null: each value minus the mean of its permutation null. Ours holds when p < "
             f"{1 - CONFIDENCE:g} and its interval is clear of 0 on the published side. Outcomes: "
-            + "; ".join(f"{name}: {meaning}" for name, meaning in MEANINGS.items()) + "."))
+            + "; ".join(f"{name}: {meaning}" for name, meaning in MEANINGS.items()) + ".", wrap=True))
     return blocks
 
 

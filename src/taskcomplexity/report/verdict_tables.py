@@ -266,7 +266,7 @@ def replication_display(data: StudyData) -> pd.DataFrame:
                      "Ours r [interval] (p)": r_p(r["pearson_r"], r["pearson_p"]).replace(" (", interval + " (", 1),
                      "Tasks": int(r["tasks"]) if np.isfinite(r["tasks"]) else MISSING,
                      "Informative tasks only": informative, "Net of the null": net,
-                     "Outcome": f"{r['outcome']}: {r['why']}"})
+                     "Outcome": r["outcome"], "Why": r["why"]})
     return pd.DataFrame(rows)
 
 
