@@ -52,7 +52,7 @@ REFERENCES = (
 """Every kind of reference score, in table order."""
 
 REFERENCE_COLUMNS = ("task", "reference", "value")
-BASES = ("value", "informative", "net of null")
+BASES = VALUE, INFORMATIVE, NET_OF_NULL = ("value", "informative", "net of null")
 """What a correlation is computed on: every task's value; only the tasks whose value carries information
 (:mod:`taskcomplexity.verdict.information`); the value minus the mean of its permutation null."""
 CONFIDENCE = 0.95
@@ -187,17 +187,17 @@ def correlations(quantities_table: pd.DataFrame, references: pd.DataFrame, names
         own = resampled.get(metric) if quantity == metric else None
         if own is not None:  # each task's draws centred on its whole-sample value: their spread, not their bias
             own = own - own.mean() + by_task.reindex(own.columns)
-        bases = [("value", by_task, own)]
+        bases = [(VALUE, by_task, own)]
         if checked is not None and quantity == metric:
             mine = checked[checked["metric"] == metric].set_index("task")
             if len(mine):
                 keep = [t for t in by_task.index if t in mine.index and bool(mine.loc[t, "informative"])]
-                bases.append(("informative", by_task.loc[keep], None if own is None else own[[
+                bases.append((INFORMATIVE, by_task.loc[keep], None if own is None else own[[
                     t for t in keep if t in own.columns]]))
                 null = mine["null_mean"].astype(float) * sign.get(metric, 1.0)
                 if mine["null_share"].notna().any():
                     net = (by_task - null.reindex(by_task.index)).dropna()
-                    bases.append(("net of null", net, None if own is None else own.sub(null, axis=1)))
+                    bases.append((NET_OF_NULL, net, None if own is None else own.sub(null, axis=1)))
         for basis, values, resamples in bases:
             for name in chosen:
                 rows.append({"quantity": quantity, "metric": metric, "reference": name, "basis": basis,
@@ -241,7 +241,7 @@ def pearson_rows(x: np.ndarray, rows: np.ndarray) -> np.ndarray:
 
 def on_values(correlated: pd.DataFrame) -> pd.DataFrame:
     """The rows of a :func:`correlations` table on every task's value (basis ``value``)."""
-    return correlated[correlated["basis"] == "value"] if "basis" in correlated.columns else correlated
+    return correlated[correlated["basis"] == VALUE] if "basis" in correlated.columns else correlated
 
 
 def correlation(test, x: np.ndarray, y: np.ndarray) -> tuple[float, float]:

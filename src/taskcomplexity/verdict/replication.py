@@ -32,7 +32,7 @@ import scipy.stats
 
 from taskcomplexity.metrics.registry import Registry
 from taskcomplexity.study_data import Study
-from taskcomplexity.verdict.references import CONFIDENCE
+from taskcomplexity.verdict.references import CONFIDENCE, INFORMATIVE, NET_OF_NULL, VALUE
 
 MIN_TASKS = 3
 """Fewest tasks a correlation is computed over (Pearson r is undefined below)."""
@@ -88,15 +88,15 @@ def replications(correlated: pd.DataFrame, study: Study, *, registry: Registry) 
                     else 1.0
                 row = {"table": name, "reference": reference, "quantity": quantity, "metric": metric,
                        "published_r": sign * r_pub, "published_p": p_pub}
-                row.update(_basis(bases, "value", ("tasks", "pearson_r", "pearson_p", "pearson_low", "pearson_high"),
+                row.update(_basis(bases, VALUE, ("tasks", "pearson_r", "pearson_p", "pearson_low", "pearson_high"),
                                   ("tasks", "pearson_r", "pearson_p", "pearson_low", "pearson_high")))
                 row["tasks_low"], row["tasks_high"] = fisher_interval(row["pearson_r"], row["tasks"])
-                row.update(_basis(bases, "informative", ("tasks", "pearson_r", "pearson_p"),
+                row.update(_basis(bases, INFORMATIVE, ("tasks", "pearson_r", "pearson_p"),
                                   ("informative_tasks", "informative_r", "informative_p")))
-                row.update(_basis(bases, "net of null", ("pearson_r", "pearson_p", "pearson_low", "pearson_high"),
+                row.update(_basis(bases, NET_OF_NULL, ("pearson_r", "pearson_p", "pearson_low", "pearson_high"),
                                   ("net_r", "net_p", "net_low", "net_high")))
-                row["outcome"], row["why"] = outcome(row, checked="informative" in bases.index,
-                                                     has_null="net of null" in bases.index)
+                row["outcome"], row["why"] = outcome(row, checked=INFORMATIVE in bases.index,
+                                                     has_null=NET_OF_NULL in bases.index)
                 rows.append(row)
     return pd.DataFrame(rows, columns=list(REPLICATION_COLUMNS))
 
