@@ -166,16 +166,21 @@ def test_the_family_options_build(name):
 
 # -- every registered family (docs/how-to/add-a-policy-family.md) --------------------------------------------
 TASKS = {"batched": ("one_link_1m0", "dense"), "pybullet": ("one_link_1m0", "dense"), "gym": "CartPole-v1",
-         "kernel": "Pendulum-v1"}
+         "kernel": "Pendulum-v1", "envpool": "Hopper-v5"}
 """A task per backend: a reaching arm for the arms' backends, a Discrete and a Box classic-control task for
-gymnasium's."""
+gymnasium's, a MuJoCo task for EnvPool's (skipped without the envpool and mujoco extras)."""
 DECLARED = [(name, backend) for name, spec in FAMILIES.items() for backend in spec.backends]
 REFUSED = [(name, backend) for name, spec in FAMILIES.items() for backend in BACKENDS if backend not in spec.backends]
 
 
 def _task(backend: str):
     where = TASKS[backend]
-    return make_task(*where) if isinstance(where, tuple) else GymTask(where)
+    if isinstance(where, tuple):
+        return make_task(*where)
+    if backend == "envpool":
+        pytest.importorskip("envpool", reason="the envpool extra is not installed")
+        pytest.importorskip("mujoco", reason="the mujoco extra is not installed")
+    return GymTask(where)
 
 
 @pytest.mark.parametrize("name", sorted(FAMILIES))

@@ -13,7 +13,7 @@ import pytest
 
 from taskcomplexity.commands import metrics as metrics_command
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters
-from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.rwg import BACKENDS, RWGSettings
 from taskcomplexity.stages.cache import Cache
 from taskcomplexity.stages.rwg_stage import RETURNS, RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.study.plan import rwg_request_from_config
@@ -145,7 +145,7 @@ def test_multirun_sweep_writes_one_artefact_per_task_and_then_only_hits_the_cach
         ("rwg.policies=1", "rwg.policies must be an integer >= 2 (N), got 1"),
         ("rwg.episodes=1", "rwg.episodes must be an integer >= 2 (M), got 1"),
         ("rwg.shard=3", "rwg.shard must be in [0, 0] (rwg.shards=1), got 3"),
-        ("backend=gpu", "backend must be one of ['auto', 'batched', 'pybullet', 'gym', 'kernel'], got 'gpu'"),
+        ("backend=gpu", f"backend must be one of {['auto', *BACKENDS]}, got 'gpu'"),
     ],
 )
 def test_bad_rwg_settings_are_refused_before_anything_runs(compose_config, override, message):

@@ -65,6 +65,10 @@ def chunk_size(task: Task, network: FamilySpec, settings: RWGSettings, backend: 
         return settings.chunk_policies
     if backend == "pybullet":
         return 16
+    if backend == "envpool":
+        from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
+
+        return POLICIES_PER_POOL
     if backend == "gym":
         return max(1, ENVIRONMENTS_IN_FLIGHT // min(settings.episodes, ENVIRONMENTS_IN_FLIGHT))
     per_env = 8 * network.working_floats(task.observation_size, task.action_size, task.max_steps)  # float64

@@ -40,8 +40,8 @@ def run_batch(task: Task, policies: FamilyBatch, backend: str, *, seed: int, epi
     policies : FamilyBatch
         P policies; their ``indices`` n choose the reset streams (seed, n, e) of their episodes. A
         :class:`~taskcomplexity.policies.families.SteppedBatch` on ``batched`` and ``pybullet``, an
-        :class:`~taskcomplexity.policies.families.ActingBatch` on ``gym`` and ``kernel``.
-    backend : {'batched', 'pybullet', 'gym', 'kernel'}
+        :class:`~taskcomplexity.policies.families.ActingBatch` on ``gym``, ``kernel`` and ``envpool``.
+    backend : {'batched', 'pybullet', 'gym', 'kernel', 'envpool'}
     seed : int
         Run seed of the reset states.
     episodes : int
@@ -68,6 +68,10 @@ def run_batch(task: Task, policies: FamilyBatch, backend: str, *, seed: int, epi
         from taskcomplexity.rwg.kernel_backend import run_kernel
 
         return ReturnChunk(policies.indices.copy(), *run_kernel(task, policies, seed, episodes, common_initial_states))
+    if backend == "envpool":  # MuJoCo and DM Control tasks on EnvPool's thread pool
+        from taskcomplexity.rwg.envpool_backend import run_envpool
+
+        return ReturnChunk(policies.indices.copy(), *run_envpool(task, policies, seed, episodes, common_initial_states))
     if backend == "gym":
         if rollout is not None:
             return ReturnChunk(policies.indices.copy(), *rollout.run(policies, seed, episodes, common_initial_states))

@@ -28,6 +28,7 @@ from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import AUTO, ReturnChunk, RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
+from taskcomplexity.rwg.envpool_backend import simulator as backend_simulator
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans, waiting_lock
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.resources import human_bytes, refuse_beyond_memory
@@ -41,10 +42,10 @@ STAGE = "rwg"
 EPISODES = (
     "policies.mlp", "policies.primitives", "policies.movement_primitives", "seeding",
     "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.arm_resets", "rwg.batched_backend",
-    "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend",
+    "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend", "rwg.envpool_backend",
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
     "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
-    "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets",
+    "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets", "tasks.envpool_ids",
 )
 """The modules that make a task's episodes under a batch of sampled policies: the policy families and their
 sampling, the physics and reward kernels, the PyBullet and gymnasium envs, the backends that step them."""
@@ -94,6 +95,8 @@ class RWGRequest:
             "backend": self.backend,
             **result_identity(self.settings),
         }
+        if (simulator := backend_simulator(self.task, self.backend)) is not None:
+            identity["simulator"] = simulator  # EnvPool's own build of MuJoCo and its own reset generator
         if not self.models_contacts:
             identity.pop("contacts")
         if self.settings.precision == "float64":  # the keys from before the setting existed
