@@ -8,7 +8,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-bag test test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost atlas-bag test test-atlas test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -51,6 +51,10 @@ atlas: $(STAMP) ## Furuta et al.'s 13 tasks (classic control, MuJoCo, DM Control
 	$(PY) -m pip install --quiet -e '.[atlas]'
 	$(PY) pipelines/study.py experiment=atlas $(ARGS)
 
+atlas-cost: $(STAMP) ## what make atlas (with ARGS=… its overrides, e.g. Furuta's N = M = 1000) will cost, from a pilot of each task
+	$(PY) -m pip install --quiet -e '.[atlas]'
+	$(PY) pipelines/cost.py experiment=atlas $(ARGS)
+
 # The 28 cells of Furuta et al.'s sweep: 7 architectures × 4 priors (each cell is one study=classic_control job).
 CLASSIC_NETWORKS := pic_linear,pic_h1_4,pic_h1_32,pic_h1_64,pic_h2_4,pic_h2_32,pic_h2_64
 CLASSIC_PRIORS := normal,uniform,xavier_normal_tanh,xavier_uniform_tanh
@@ -75,6 +79,13 @@ test: $(STAMP) ## run the test suite (CI runs it, then make test-avx2)
 PINNED_TESTS := tests/golden tests/metrics/test_log_mean_exp.py tests/tasks/test_batched.py \
 	tests/tasks/test_rollout_kernel.py tests/tasks/test_step_kernel.py tests/tasks/test_contact.py \
 	tests/tasks/test_noisy_cartpole.py
+
+# The tests that run only with the atlas extra (MuJoCo, DM Control, EnvPool); make test skips them without it.
+ATLAS_TESTS := tests/tasks/test_envpool_backend.py tests/tasks/test_gym_task.py tests/test_policies.py
+
+test-atlas: $(STAMP) ## installs the atlas extra and runs the tests that need it: EnvPool against gymnasium per task (minutes)
+	$(PY) -m pip install --quiet -e '.[atlas]'
+	$(PY) -m pytest -q $(XDIST) $(ATLAS_TESTS)
 
 test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass)
 	$(PY) tests/cpu_paths.py -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)

@@ -16,6 +16,8 @@ Modules
 -------
 compilation
     Says when numba compiles a set of kernels and how long it took; compiles them all ahead (``make install``).
+cost
+    What a study's RWG stage will cost: a pilot of each task on this machine, extrapolated to its N × M.
 metrics
     The metrics stage's entry point: every registered metric of a task, its bootstrap and batch estimates.
 rwg

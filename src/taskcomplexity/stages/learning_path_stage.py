@@ -119,7 +119,8 @@ def chosen_snapshots(count: int, every: int) -> list[int]:
 def learning_path_key(request: RWGRequest, sac_key: str, settings: LearningPathSettings, metrics: MetricsSettings,
                       registry: Registry) -> str:
     rwg = request.identity()
-    episodes = {k: v for k, v in rwg.items() if k in ("task", "backend", "simulator", "contacts", "common_initial_states")}
+    kept = ("task", "backend", "simulator", "contacts", "common_initial_states")
+    episodes = {k: v for k, v in rwg.items() if k in kept}
     return stage_key(STAGE, NUMERICS, {"episodes": episodes, "sac": sac_key, **settings.identity(),
                                       "estimation": metrics.identity(), "metrics": registry.signature(STAGE)})
 

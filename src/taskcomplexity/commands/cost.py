@@ -1,0 +1,177 @@
+"""What a study's RWG stage will cost, estimated before any work from a pilot of each task on this machine.
+
+    python pipelines/cost.py experiment=atlas                                         # make atlas's budget
+    python pipelines/cost.py experiment=atlas study.policies=1000 study.episodes=1000  # Furuta et al.'s protocol
+    make atlas-cost ARGS='study.policies=1000 study.episodes=1000 rwg.shards=100'
+
+Per task of the composed study (the same overrides as the run it prices), on the backend the run would take: its
+first ``PILOT_POLICIES`` policies (on ``envpool``, a chunk's: one environment each) run ``PILOT_EPISODES[0]`` and
+then ``PILOT_EPISODES[1]`` episodes, in one chunk each time. A chunk's CPU time is a fixed part (making its
+environments, sampling its policies) plus a part per episode, so the two pilots give both: CPU-s per episode = the
+difference of their CPU over the difference of their episodes, and the fixed part = the first pilot's CPU less its
+episodes' share. The estimate is then N × M × CPU-s per episode + the run's chunks × the fixed part; episode
+lengths vary between policies, so the pilot's policies stand for the N (the table gives their mean episode length
+beside the limit T). Nothing is cached: the pilots' returns are thrown away; the RWG stage's own cache is not read
+either (a cached task costs nothing to rerun).
+
+The wall time assumes every usable core of this machine busy; with ``rwg.shards=K`` each shard is a 1/K share,
+compared with the cluster launcher's time limit (``hydra.launcher.timeout_min``, on ``cpus_per_task`` cores) when
+``hydra/launcher=cluster`` is given.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import resource
+import time
+from typing import Any
+
+from omegaconf import DictConfig
+
+from taskcomplexity.cli import one_line_errors
+from taskcomplexity.commands import entry_point
+from taskcomplexity.cores import usable_cores
+
+log = logging.getLogger("cost")
+
+PILOT_POLICIES = 16
+"""Policies of each pilot (the run's policies 0 … 15 of its seed); on EnvPool a whole chunk's (its batch)."""
+BATCHED = ("kernel", "batched")
+"""Backends that step every episode of a chunk at once (numba kernels): a pilot's small batch costs more per episode."""
+PILOT_EPISODES = (2, 6)
+"""Episodes per policy of the two pilots: the difference prices an episode, the first the chunk's fixed part."""
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process (every thread) and of its children that ended."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+@dataclasses.dataclass(frozen=True)
+class TaskCost:
+    """The estimate for one task.
+
+    Attributes
+    ----------
+    task, backend : str
+    policies, episodes, limit : int
+        N, M and the episode limit T of the run priced.
+    mean_steps : float
+        Mean episode length of the pilots' episodes (environment steps).
+    episode_cpu, chunk_cpu : float
+        CPU-s per episode and per chunk (fixed part), from the pilots.
+    chunks : int
+        The run's chunks.
+    """
+
+    task: str
+    backend: str
+    policies: int
+    episodes: int
+    limit: int
+    mean_steps: float
+    episode_cpu: float
+    chunk_cpu: float
+    chunks: int
+
+    @property
+    def cpu_seconds(self) -> float:
+        return self.policies * self.episodes * self.episode_cpu + self.chunks * self.chunk_cpu
+
+
+def price(request) -> TaskCost:
+    """Run the two pilots of ``request``'s task and extrapolate to its N × M."""
+    from taskcomplexity.rwg import chunks, run_rwg
+    from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
+
+    settings = request.settings
+    policies = min(settings.policies, POLICIES_PER_POOL if request.backend == "envpool" else PILOT_POLICIES)
+    pilots = []
+    for episodes in (2, *PILOT_EPISODES):  # the first, untimed, loads what a process loads once (kernels, modules)
+        pilot = dataclasses.replace(settings, policies=policies if pilots else 2, episodes=episodes, shard=0, shards=1,
+                                    chunk_policies=policies, workers=1)
+        started = _cpu_seconds()
+        chunk = run_rwg(request.task, request.network, request.prior, pilot, request.backend)
+        pilots.append((_cpu_seconds() - started, chunk))
+    (first, short), (second, long) = pilots[1:]
+    per_policy_episodes = PILOT_EPISODES[1] - PILOT_EPISODES[0]
+    episode_cpu = max(second - first, 0.0) / (len(long.policy) * per_policy_episodes)
+    chunk_cpu = max(first - episode_cpu * short.steps.size, 0.0)
+    whole = dataclasses.replace(settings, shard=0, shards=1)
+    return TaskCost(request.task.task_id, request.backend, settings.policies, settings.episodes,
+                    int(request.task.max_steps), float(long.steps.mean()), episode_cpu, chunk_cpu,
+                    len(chunks(request.task, request.network, whole, request.backend)))
+
+
+def _hours(seconds: float) -> str:
+    return f"{seconds / 3600:.2f} h" if seconds >= 360 else f"{seconds / 60:.1f} min"
+
+
+def _launcher_limit(cfg: DictConfig) -> tuple[float, int] | None:
+    """(time limit in seconds, cores) of a cluster launcher given on the command line, else None."""
+    try:
+        from hydra.core.hydra_config import HydraConfig
+
+        launcher = HydraConfig.get().launcher
+    except (ImportError, ValueError):
+        return None
+    minutes, cores = launcher.get("timeout_min"), launcher.get("cpus_per_task")
+    return (60.0 * minutes, int(cores or 1)) if minutes else None
+
+
+def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
+    """Price every task of the composed study and print the table, the total and the shard advice."""
+    from taskcomplexity.study.plan import study_requests
+
+    requests = [request for _, request in study_requests(cfg)]
+    cores = usable_cores()
+    costs = []
+    for request in requests:
+        started = time.perf_counter()
+        costs.append(price(request))
+        log.info("priced %s on %s in %.1f s", request.task.task_id, request.backend, time.perf_counter() - started)
+    shards = int(cfg.rwg.shards)
+    n, m = requests[0].settings.policies, requests[0].settings.episodes
+    echo(f"RWG cost of study {cfg.study.name} at N = {n:,} × M = {m:,}, from pilots of {PILOT_POLICIES} policies × "
+         f"{PILOT_EPISODES[0]} and × {PILOT_EPISODES[1]} episodes per task on this machine ({cores} usable cores):")
+    head = (f"{'task':<26}{'backend':>9}{'steps/episode':>15}{'T':>6}{'CPU-ms/episode':>16}{'CPU-s/chunk':>13}"
+            f"{'chunks':>8}{'CPU':>12}")
+    echo(head)
+    echo("-" * len(head))
+    for c in costs:
+        echo(f"{c.task:<26}{c.backend:>9}{c.mean_steps:>15.1f}{c.limit:>6}{c.episode_cpu * 1e3:>16.2f}"
+             f"{c.chunk_cpu:>13.2f}{c.chunks:>8}{_hours(c.cpu_seconds):>12}")
+    total = sum(c.cpu_seconds for c in costs)
+    if any(c.backend in BATCHED for c in costs):
+        echo(f"the {' and '.join(BATCHED)} backends step every episode of a chunk at once: a pilot's small batch is "
+             "priced by its per-step overhead more than by its episodes, so their rows are rough")
+    echo(f"total: {total / 3600:.2f} CPU-hours; {_hours(total / cores)} of wall time on this machine's {cores} cores "
+         "(every core busy)")
+    limit = _launcher_limit(cfg)
+    if shards > 1 or limit is not None:
+        share = total / shards
+        line = f"with rwg.shards={shards}: {share / 3600:.2f} CPU-hours per shard"
+        if limit is not None:
+            seconds, job_cores = limit
+            wall = share / job_cores
+            needed = math.ceil(total / (job_cores * seconds))
+            line += (f", {_hours(wall)} on a job's {job_cores} cores against the launcher's limit of {_hours(seconds)}"
+                     + (": within it" if wall <= seconds else f": beyond it, use rwg.shards >= {needed}"))
+        echo(line)
+    return costs
+
+
+@one_line_errors
+def run(cfg: DictConfig) -> Any:
+    """Print the estimate of the composed study's RWG stage (no artefact is written)."""
+    return estimate(cfg)
+
+
+main = entry_point(run)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,40 @@
+"""``pipelines/cost.py``: a study's RWG cost from two pilots per task, extrapolated to its N × M."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from taskcomplexity.commands.cost import PILOT_EPISODES, TaskCost, estimate
+from taskcomplexity.errors import ConfigError
+
+
+def test_the_estimate_is_n_times_m_episodes_plus_the_chunks_fixed_part():
+    cost = TaskCost("t", "gym", policies=1000, episodes=1000, limit=1000, mean_steps=500.0, episode_cpu=0.02,
+                    chunk_cpu=3.0, chunks=250)
+    assert cost.cpu_seconds == pytest.approx(1000 * 1000 * 0.02 + 250 * 3.0)
+
+
+def test_every_task_of_the_study_is_priced_on_its_backend_and_the_table_adds_up(compose_config):
+    cfg = compose_config("study=classic_control", "study.policies=400", "study.episodes=50", "rwg.shards=4")
+    lines = []
+    costs = estimate(cfg, echo=lines.append)
+    assert [c.task for c in costs] == ["CartPole-v0", "Pendulum-v1", "MountainCar-v0", "MountainCarContinuous-v0",
+                                       "Acrobot-v1"]
+    for c in costs:
+        assert (c.backend, c.policies, c.episodes) == ("kernel", 400, 50)
+        assert 1 <= c.mean_steps <= c.limit and c.chunks >= 1 and c.episode_cpu >= 0 and c.chunk_cpu >= 0
+    assert costs[1].mean_steps == 200  # Pendulum never ends an episode before its limit
+    assert lines[0].startswith("RWG cost of study classic_control at N = 400 × M = 50, from pilots of 16 policies × "
+                               f"{PILOT_EPISODES[0]} and × {PILOT_EPISODES[1]} episodes")
+    total = sum(c.cpu_seconds for c in costs)
+    assert any(line.startswith(f"total: {total / 3600:.2f} CPU-hours") for line in lines)
+    assert lines[-1].startswith(f"with rwg.shards=4: {total / 4 / 3600:.2f} CPU-hours per shard")
+    assert any("rows are rough" in line for line in lines)  # the kernel backend's caveat, said once
+    assert not math.isnan(total)
+
+
+def test_a_bad_budget_is_refused_before_any_pilot(compose_config):
+    with pytest.raises(ConfigError, match=r"^study\.policies must be an integer >= 2 or null, got 1$"):
+        estimate(compose_config("study=classic_control", "study.policies=1"), echo=print)
