@@ -241,3 +241,14 @@ def test_counts_outside_the_headline_read_right_with_one_relation(pair):
     assert not re.search(r"\b1 (known |complexity |[a-z]+ )?(relations|tasks|policies|episodes|cells)\b", body)
     assert not re.search(r"\b[01] of (the )?1\b", body)
     assert "this report compares 2 tasks" in body
+
+
+def test_a_reproduced_correlation_says_where_the_published_level_lies():
+    from taskcomplexity.report.headline import _level
+
+    row = {"outcome": "reproduced", "published_r": 0.807, "pearson_low": 0.51, "pearson_high": 0.73,
+           "tasks_low": 0.14, "tasks_high": 0.88}
+    assert _level(row) == ("; the published r lies outside our interval over resampled policies and inside Fisher's "
+                           "interval across the tasks (0.14 to 0.88)")
+    assert _level({**row, "pearson_high": 0.9}).startswith("; the published r lies inside our interval")
+    assert _level({**row, "outcome": "estimator bias"}) == "" and _level({**row, "pearson_low": float("nan")}) == ""

@@ -421,8 +421,22 @@ def replication_sentences(data: StudyData) -> list[str]:
             sentences.append(
                 f"{label} against {reference_label(r['reference'])}: {data.study.published.source} prints r = "
                 f"{num(r['published_r'], 3)} (p = {pvalue(r['published_p'])}); {ours}. {r['outcome'].capitalize()}"
-                f"{budget}: {r['why']}.")
+                f"{budget}: {r['why']}{_level(r)}.")
     return sentences
+
+
+def _level(r) -> str:
+    """Where the published r lies against our intervals, when the outcome is reproduced (the same sign and
+    significance need not be the same level): "" otherwise or without an interval."""
+    if r["outcome"] != "reproduced" or not np.isfinite(r["pearson_low"]):
+        return ""
+    inside = r["pearson_low"] <= r["published_r"] <= r["pearson_high"]
+    clause = f"; the published r lies {'inside' if inside else 'outside'} our interval over resampled policies"
+    if np.isfinite(r.get("tasks_low", np.nan)):
+        across = r["tasks_low"] <= r["published_r"] <= r["tasks_high"]
+        clause += (f" and {'inside' if across else 'outside'} Fisher's interval across the tasks "
+                   f"({num(r['tasks_low'], 2)} to {num(r['tasks_high'], 2)})")
+    return clause
 
 
 def reference_sentences(data: StudyData) -> list[str]:
