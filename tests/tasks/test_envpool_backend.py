@@ -154,3 +154,22 @@ def test_backend_envpool_is_refused_in_one_line_where_it_cannot_run(compose_conf
     with pytest.raises(ConfigError, match=r"backend=envpool is not available for task Pendulum-v1 \(allowed: auto, "
                                           r"kernel, gym\)"):
         rwg_request_from_config(compose_config("task=gym", "task.env_id=Pendulum-v1", "backend=envpool"))
+
+
+@pytest.mark.parametrize(("task_id", "preset"), PRESETS, ids=[t for t, _ in PRESETS])
+def test_dict_observations_are_flattened_in_the_order_gymnasiums_env_gives(compose_config, task_id, preset):
+    """A DM Control task's observation is a dict: EnvPool's keys and shapes, in its space's order, are those of the
+    env through Shimmy, which gymnasium's ``FlattenObservation`` concatenates in that order."""
+    import gymnasium
+
+    from taskcomplexity.rwg.envpool_backend import environment_seeds, make_pool, observation_keys
+
+    request = _request(compose_config, preset)
+    pool = make_pool(request.task, environment_seeds(0, np.arange(1)))
+    theirs = gymnasium.make(request.task.spec.id).observation_space
+    if isinstance(theirs, gymnasium.spaces.Dict):
+        assert observation_keys(pool) == tuple(theirs.spaces)
+        assert [pool.observation_space[k].shape for k in theirs.spaces] == [s.shape for s in theirs.spaces.values()]
+    else:
+        assert observation_keys(pool) is None and pool.observation_space.shape == theirs.shape
+    pool.close()
