@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from taskcomplexity.commands.cost import PILOT_EPISODES, TaskCost, estimate
+from taskcomplexity.commands.cost import TaskCost, _hours, estimate
 from taskcomplexity.errors import ConfigError
 
 
@@ -26,15 +26,27 @@ def test_every_task_of_the_study_is_priced_on_its_backend_and_the_table_adds_up(
         assert (c.backend, c.policies, c.episodes) == ("kernel", 400, 50)
         assert 1 <= c.mean_steps <= c.limit and c.chunks >= 1 and c.episode_cpu >= 0 and c.chunk_cpu >= 0
     assert costs[1].mean_steps == 200  # Pendulum never ends an episode before its limit
-    assert lines[0].startswith("RWG cost of study classic_control at N = 400 × M = 50, from pilots of 16 policies × "
-                               f"{PILOT_EPISODES[0]} and × {PILOT_EPISODES[1]} episodes")
+    assert lines[0].startswith("RWG cost of study classic_control at N = 400 × M = 50, from two pilots per task")
     total = sum(c.cpu_seconds for c in costs)
     assert any(line.startswith(f"total: {total / 3600:.2f} CPU-hours") for line in lines)
-    assert lines[-1].startswith(f"with rwg.shards=4: {total / 4 / 3600:.2f} CPU-hours per shard")
-    assert any("rows are rough" in line for line in lines)  # the kernel backend's caveat, said once
+    assert lines[-1] == f"with rwg.shards=4: {_hours(total / 4)} of CPU per shard"
     assert not math.isnan(total)
 
 
 def test_a_bad_budget_is_refused_before_any_pilot(compose_config):
     with pytest.raises(ConfigError, match=r"^study\.policies must be an integer >= 2 or null, got 1$"):
         estimate(compose_config("study=classic_control", "study.policies=1"), echo=print)
+
+
+def test_a_shard_is_set_against_the_cluster_launchers_time_limit(compose_config, monkeypatch):
+    import taskcomplexity.commands.cost as cost
+
+    cfg = compose_config("study=classic_control", "study.policies=64", "study.episodes=8", "rwg.shards=2")
+    for limit in (1e6, 1e-3):  # seconds of the launcher's time limit, on 2 cores per job
+        monkeypatch.setattr(cost, "_launcher_limit", lambda cfg, limit=limit: (limit, 2))
+        lines = []
+        total = sum(c.cpu_seconds for c in estimate(cfg, echo=lines.append))
+        if limit > 1:
+            assert lines[-1].endswith(f"on a job's 2 cores against the launcher's limit of {_hours(limit)}: within it")
+        else:
+            assert lines[-1].endswith(f"beyond it, use rwg.shards >= {math.ceil(total / (2 * limit))}")

@@ -4,15 +4,17 @@
     python pipelines/cost.py experiment=atlas study.policies=1000 study.episodes=1000  # Furuta et al.'s protocol
     make atlas-cost ARGS='study.policies=1000 study.episodes=1000 rwg.shards=100'
 
-Per task of the composed study (the same overrides as the run it prices), on the backend the run would take: its
-first ``PILOT_POLICIES`` policies (on ``envpool``, a chunk's: one environment each) run ``PILOT_EPISODES[0]`` and
-then ``PILOT_EPISODES[1]`` episodes, in one chunk each time. A chunk's CPU time is a fixed part (making its
-environments, sampling its policies) plus a part per episode, so the two pilots give both: CPU-s per episode = the
-difference of their CPU over the difference of their episodes, and the fixed part = the first pilot's CPU less its
-episodes' share. The estimate is then N × M × CPU-s per episode + the run's chunks × the fixed part; episode
-lengths vary between policies, so the pilot's policies stand for the N (the table gives their mean episode length
-beside the limit T). Nothing is cached: the pilots' returns are thrown away; the RWG stage's own cache is not read
-either (a cached task costs nothing to rerun).
+Per task of the composed study (the same overrides as the run it prices), on the backend the run would take, two
+pilots of its first policies, each in one chunk (:func:`pilot_sizes`): on the ``gym`` and ``envpool`` backends
+``PILOT_POLICIES`` policies (on ``envpool`` a chunk's: one environment each) run ``PILOT_EPISODES[0]`` and then
+``PILOT_EPISODES[1]`` episodes; on the ``kernel`` and ``batched`` backends, which step a chunk's P × M episodes as
+one batch, 2 and then 6 policies run the run's M. A chunk's CPU time is a fixed part (making its environments,
+sampling its policies) plus a part per episode, so the two pilots give both: CPU-s per episode = the difference of
+their CPU over the difference of their episodes, and the fixed part = the first pilot's CPU less its episodes'
+share. The estimate is then N × M × CPU-s per episode + the run's chunks × the fixed part; episode lengths vary
+between policies, so the pilots' policies stand for the N (the table gives their mean episode length beside the
+limit T). Nothing is cached: the pilots' returns are thrown away; the RWG stage's own cache is not read either (a
+cached task costs nothing to rerun).
 
 The wall time assumes every usable core of this machine busy; with ``rwg.shards=K`` each shard is a 1/K share,
 compared with the cluster launcher's time limit (``hydra.launcher.timeout_min``, on ``cpus_per_task`` cores) when
@@ -39,7 +41,8 @@ log = logging.getLogger("cost")
 PILOT_POLICIES = 16
 """Policies of each pilot (the run's policies 0 … 15 of its seed); on EnvPool a whole chunk's (its batch)."""
 BATCHED = ("kernel", "batched")
-"""Backends that step every episode of a chunk at once (numba kernels): a pilot's small batch costs more per episode."""
+"""Backends that step every episode of a chunk at once (numba kernels): a chunk costs what its batch (P × M episodes)
+costs, so their pilots run the run's M."""
 PILOT_EPISODES = (2, 6)
 """Episodes per policy of the two pilots: the difference prices an episode, the first the chunk's fixed part."""
 
@@ -82,27 +85,41 @@ class TaskCost:
         return self.policies * self.episodes * self.episode_cpu + self.chunks * self.chunk_cpu
 
 
-def price(request) -> TaskCost:
-    """Run the two pilots of ``request``'s task and extrapolate to its N × M."""
-    from taskcomplexity.rwg import chunks, run_rwg
+def pilot_sizes(request) -> tuple[tuple[int, int], tuple[int, int]]:
+    """(policies, episodes) of the two pilots of ``request``: on the batched backends, 2 and up to 6 policies at the
+    run's M (a chunk's cost is its batch's: P × M episodes stepped together); elsewhere ``PILOT_POLICIES`` (on
+    ``envpool``, a chunk's policies) at ``PILOT_EPISODES``."""
     from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
 
     settings = request.settings
+    if request.backend in BATCHED:
+        return (2, settings.episodes), (min(PILOT_EPISODES[1], settings.policies), settings.episodes)
     policies = min(settings.policies, POLICIES_PER_POOL if request.backend == "envpool" else PILOT_POLICIES)
-    pilots = []
-    for episodes in (2, *PILOT_EPISODES):  # the first, untimed, loads what a process loads once (kernels, modules)
-        pilot = dataclasses.replace(settings, policies=policies if pilots else 2, episodes=episodes, shard=0, shards=1,
+    return (policies, PILOT_EPISODES[0]), (policies, PILOT_EPISODES[1])
+
+
+def price(request) -> TaskCost:
+    """Run the two pilots of ``request``'s task (after an untimed one that loads what a process loads once: kernels,
+    modules) and extrapolate to its N × M."""
+    from taskcomplexity.rwg import chunks, run_rwg
+
+    settings = request.settings
+    timed = []
+    for policies, episodes in ((2, 2), *pilot_sizes(request)):
+        pilot = dataclasses.replace(settings, policies=policies, episodes=episodes, shard=0, shards=1,
                                     chunk_policies=policies, workers=1)
         started = _cpu_seconds()
         chunk = run_rwg(request.task, request.network, request.prior, pilot, request.backend)
-        pilots.append((_cpu_seconds() - started, chunk))
-    (first, short), (second, long) = pilots[1:]
-    per_policy_episodes = PILOT_EPISODES[1] - PILOT_EPISODES[0]
-    episode_cpu = max(second - first, 0.0) / (len(long.policy) * per_policy_episodes)
-    chunk_cpu = max(first - episode_cpu * short.steps.size, 0.0)
+        timed.append((_cpu_seconds() - started, chunk.steps))
+    (first, short), (second, long) = timed[1:]
+    if long.size > short.size:
+        episode_cpu = max(second - first, 0.0) / (long.size - short.size)
+        chunk_cpu = max(first - episode_cpu * short.size, 0.0)
+    else:  # N = 2 on a batched backend: both pilots are the run itself
+        episode_cpu, chunk_cpu = second / long.size, 0.0
     whole = dataclasses.replace(settings, shard=0, shards=1)
     return TaskCost(request.task.task_id, request.backend, settings.policies, settings.episodes,
-                    int(request.task.max_steps), float(long.steps.mean()), episode_cpu, chunk_cpu,
+                    int(request.task.max_steps), float(long.mean()), episode_cpu, chunk_cpu,
                     len(chunks(request.task, request.network, whole, request.backend)))
 
 
@@ -124,6 +141,7 @@ def _launcher_limit(cfg: DictConfig) -> tuple[float, int] | None:
 
 def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
     """Price every task of the composed study and print the table, the total and the shard advice."""
+    from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
     from taskcomplexity.study.plan import study_requests
 
     requests = [request for _, request in study_requests(cfg)]
@@ -135,8 +153,10 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
         log.info("priced %s on %s in %.1f s", request.task.task_id, request.backend, time.perf_counter() - started)
     shards = int(cfg.rwg.shards)
     n, m = requests[0].settings.policies, requests[0].settings.episodes
-    echo(f"RWG cost of study {cfg.study.name} at N = {n:,} × M = {m:,}, from pilots of {PILOT_POLICIES} policies × "
-         f"{PILOT_EPISODES[0]} and × {PILOT_EPISODES[1]} episodes per task on this machine ({cores} usable cores):")
+    echo(f"RWG cost of study {cfg.study.name} at N = {n:,} × M = {m:,}, from two pilots per task on this machine "
+         f"({cores} usable cores): {PILOT_POLICIES} policies (on envpool {POLICIES_PER_POOL}) × {PILOT_EPISODES[0]} "
+         f"and × {PILOT_EPISODES[1]} episodes, or on the {' and '.join(BATCHED)} backends 2 and {PILOT_EPISODES[1]} "
+         "policies × M:")
     head = (f"{'task':<26}{'backend':>9}{'steps/episode':>15}{'T':>6}{'CPU-ms/episode':>16}{'CPU-s/chunk':>13}"
             f"{'chunks':>8}{'CPU':>12}")
     echo(head)
@@ -145,15 +165,12 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
         echo(f"{c.task:<26}{c.backend:>9}{c.mean_steps:>15.1f}{c.limit:>6}{c.episode_cpu * 1e3:>16.2f}"
              f"{c.chunk_cpu:>13.2f}{c.chunks:>8}{_hours(c.cpu_seconds):>12}")
     total = sum(c.cpu_seconds for c in costs)
-    if any(c.backend in BATCHED for c in costs):
-        echo(f"the {' and '.join(BATCHED)} backends step every episode of a chunk at once: a pilot's small batch is "
-             "priced by its per-step overhead more than by its episodes, so their rows are rough")
     echo(f"total: {total / 3600:.2f} CPU-hours; {_hours(total / cores)} of wall time on this machine's {cores} cores "
          "(every core busy)")
     limit = _launcher_limit(cfg)
     if shards > 1 or limit is not None:
         share = total / shards
-        line = f"with rwg.shards={shards}: {share / 3600:.2f} CPU-hours per shard"
+        line = f"with rwg.shards={shards}: {_hours(share)} of CPU per shard"
         if limit is not None:
             seconds, job_cores = limit
             wall = share / job_cores
