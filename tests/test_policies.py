@@ -166,9 +166,10 @@ def test_the_family_options_build(name):
 
 # -- every registered family (docs/how-to/add-a-policy-family.md) --------------------------------------------
 TASKS = {"batched": ("one_link_1m0", "dense"), "pybullet": ("one_link_1m0", "dense"), "gym": "CartPole-v1",
-         "kernel": "Pendulum-v1", "envpool": "Hopper-v5"}
+         "kernel": "Pendulum-v1", "envpool": "Hopper-v5", "vector": "vector_pendulum:VectorPendulum-v0"}
 """A task per backend: a reaching arm for the arms' backends, a Discrete and a Box classic-control task for
-gymnasium's, a MuJoCo task for EnvPool's (skipped without the envpool and mujoco extras)."""
+gymnasium's, a MuJoCo task for EnvPool's (skipped without the envpool and mujoco extras), a researcher's vectorised
+env (``tests/vector_pendulum.py``) for ``vector``."""
 DECLARED = [(name, backend) for name, spec in FAMILIES.items() for backend in spec.backends]
 REFUSED = [(name, backend) for name, spec in FAMILIES.items() for backend in BACKENDS if backend not in spec.backends]
 

@@ -4,8 +4,8 @@ A family is two classes. Its **spec** (:class:`FamilySpec`) is the frozen datacl
 config node builds (``conf/network/<option>.yaml``; its ``family`` key names the family); it keys the returns,
 labels the runs, sizes the chunks, names the backends it runs on and samples a **batch** of policies. The batch
 answers the calls of those backends: every backend calls :class:`FamilyBatch`'s members; the ``batched`` and
-``pybullet`` backends step it with :class:`SteppedBatch`'s ``begin``/``respond``, the ``gym``, ``kernel`` and
-``envpool`` backends with :class:`ActingBatch`'s ``act``/``unit_outputs`` (:data:`BACKEND_CALLS`).
+``pybullet`` backends step it with :class:`SteppedBatch`'s ``begin``/``respond``, the ``gym``, ``kernel``,
+``envpool`` and ``vector`` backends with :class:`ActingBatch`'s ``act``/``unit_outputs`` (:data:`BACKEND_CALLS`).
 
 - ``mlp`` (the default; a config without ``family`` is one): the paper's random MLPs,
   :class:`~taskcomplexity.policies.mlp.NetworkSpec` → :class:`~taskcomplexity.policies.mlp.PolicyBatch`,
@@ -126,7 +126,7 @@ class SteppedBatch(FamilyBatch, Protocol):
 
 @runtime_checkable
 class ActingBatch(FamilyBatch, Protocol):
-    """A batch the ``gym``, ``kernel`` and ``envpool`` backends run: any gymnasium task, Box or Discrete actions."""
+    """A batch gymnasium's backends (``gym``, ``kernel``, ``envpool``, ``vector``) run: Box or Discrete actions."""
 
     def act(self, observations: torch.Tensor) -> torch.Tensor:
         """Deterministic outputs, one row per (policy, environment).
@@ -164,7 +164,7 @@ class ActingBatch(FamilyBatch, Protocol):
 
 BACKEND_CALLS: dict[str, type[FamilyBatch]] = {
     "batched": SteppedBatch, "pybullet": SteppedBatch, "gym": ActingBatch, "kernel": ActingBatch,
-    "envpool": ActingBatch,
+    "envpool": ActingBatch, "vector": ActingBatch,
 }
 """RWG backend → the interface it calls on a batch: a family that lists a backend implements its interface."""
 

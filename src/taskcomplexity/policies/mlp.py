@@ -76,7 +76,7 @@ class NetworkSpec:
     family: str = "mlp"
 
     ADDED: ClassVar[dict] = {"activation": "relu", "input_bias": False, "output": "tanh", "family": "mlp"}
-    backends: ClassVar[tuple[str, ...]] = ("batched", "pybullet", "gym", "kernel", "envpool")
+    backends: ClassVar[tuple[str, ...]] = ("batched", "pybullet", "gym", "kernel", "envpool", "vector")
 
     def validate(self) -> None:
         if self.family != "mlp":

@@ -7,7 +7,9 @@
 - ``gym``: any task through a pool of its gymnasium envs (:mod:`taskcomplexity.rwg.gym_backend`);
 - ``kernel``: gymnasium's classic-control tasks on batched numba kernels (:mod:`taskcomplexity.rwg.kernel_backend`);
 - ``envpool``: gymnasium's MuJoCo tasks and DM Control's on EnvPool's C++ thread pool
-  (:mod:`taskcomplexity.rwg.envpool_backend`).
+  (:mod:`taskcomplexity.rwg.envpool_backend`);
+- ``vector``: a task whose id registers a vector env (``vector_entry_point``) that seeds each environment, one
+  ``step`` for a chunk's environments (:mod:`taskcomplexity.rwg.vector_backend`).
 
 A task lists those it can run (``task.backends``, fastest exact one first), a policy family those whose calls
 its batches answer (``network.backends``, :data:`taskcomplexity.policies.families.BACKEND_CALLS`). A run uses a
@@ -24,7 +26,7 @@ from taskcomplexity.tasks.base import Task
 if TYPE_CHECKING:
     from taskcomplexity.policies.families import FamilySpec
 
-BACKENDS = ("batched", "pybullet", "gym", "kernel", "envpool")
+BACKENDS = ("batched", "pybullet", "gym", "kernel", "envpool", "vector")
 """Every RWG backend; a task lists those it supports in ``task.backends`` (fastest exact one first)."""
 AUTO = "auto"
 """``backend=auto``: the task's first backend (that the policy family runs on)."""

@@ -69,7 +69,7 @@ def chunk_size(task: Task, network: FamilySpec, settings: RWGSettings, backend: 
         from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
 
         return POLICIES_PER_POOL
-    if backend == "gym":
+    if backend in ("gym", "vector"):
         return max(1, ENVIRONMENTS_IN_FLIGHT // min(settings.episodes, ENVIRONMENTS_IN_FLIGHT))
     per_env = 8 * network.working_floats(task.observation_size, task.action_size, task.max_steps)  # float64
     envs = settings.chunk_memory_mb * 2**20 // per_env

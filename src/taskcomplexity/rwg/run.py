@@ -40,8 +40,8 @@ def run_batch(task: Task, policies: FamilyBatch, backend: str, *, seed: int, epi
     policies : FamilyBatch
         P policies; their ``indices`` n choose the reset streams (seed, n, e) of their episodes. A
         :class:`~taskcomplexity.policies.families.SteppedBatch` on ``batched`` and ``pybullet``, an
-        :class:`~taskcomplexity.policies.families.ActingBatch` on ``gym``, ``kernel`` and ``envpool``.
-    backend : {'batched', 'pybullet', 'gym', 'kernel', 'envpool'}
+        :class:`~taskcomplexity.policies.families.ActingBatch` on ``gym``, ``kernel``, ``envpool`` and ``vector``.
+    backend : {'batched', 'pybullet', 'gym', 'kernel', 'envpool', 'vector'}
     seed : int
         Run seed of the reset states.
     episodes : int
@@ -72,6 +72,10 @@ def run_batch(task: Task, policies: FamilyBatch, backend: str, *, seed: int, epi
         from taskcomplexity.rwg.envpool_backend import run_envpool
 
         return ReturnChunk(policies.indices.copy(), *run_envpool(task, policies, seed, episodes, common_initial_states))
+    if backend == "vector":  # a researcher's vectorised env: one step for every environment of the chunk
+        from taskcomplexity.rwg.vector_backend import run_vector
+
+        return ReturnChunk(policies.indices.copy(), *run_vector(task, policies, seed, episodes, common_initial_states))
     if backend == "gym":
         if rollout is not None:
             return ReturnChunk(policies.indices.copy(), *rollout.run(policies, seed, episodes, common_initial_states))

@@ -43,9 +43,11 @@ EPISODES = (
     "policies.mlp", "policies.primitives", "policies.movement_primitives", "seeding",
     "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.arm_resets", "rwg.batched_backend",
     "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend", "rwg.envpool_backend",
+    "rwg.vector_backend",
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
     "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
     "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets", "tasks.envpool_ids",
+    "tasks.vectorised",
 )
 """The modules that make a task's episodes under a batch of sampled policies: the policy families and their
 sampling, the physics and reward kernels, the PyBullet and gymnasium envs, the backends that step them."""

@@ -90,13 +90,17 @@ class GymTask:
     def backends(self) -> tuple[str, ...]:
         # An id (with constructor arguments) that has a classic-control kernel runs on it by default: the
         # kernel steps every episode of a chunk at once and reproduces gymnasium's episodes exactly.
-        # One that EnvPool simulates (gymnasium's MuJoCo tasks, DM Control's) runs on its C++ thread pool by default.
+        # One that EnvPool simulates (gymnasium's MuJoCo tasks, DM Control's) runs on its C++ thread pool by default,
+        # one that registers a vector env seeding each of its environments on that env.
         from taskcomplexity.tasks.classic import kernel_for
         from taskcomplexity.tasks.envpool_ids import envpool_id
+        from taskcomplexity.tasks.vectorised import seeds_each
 
         if kernel_for(self.env_id, self.kwargs) is not None:
             return ("kernel", "gym")
-        return ("envpool", "gym") if envpool_id(self) is not None else ("gym",)
+        if envpool_id(self) is not None:
+            return ("envpool", "gym")
+        return ("vector", "gym") if seeds_each(self) else ("gym",)
 
     def identity(self) -> dict:
         """The env id, its constructor arguments, the resolved episode limit and a digest of the source file
