@@ -12,7 +12,8 @@ The package re-exports the names of its modules:
 - :mod:`.chunking`: :class:`ReturnChunk` and the split of a shard into chunks;
 - :mod:`.run`: :func:`run_rwg` over a shard, :func:`simulate_chunk` for a chunk, :func:`run_batch` for a batch;
 - the backends: :mod:`.batched_backend` and :mod:`.pybullet_backend` (the reaching arms, from the reset states
-  of :mod:`.arm_resets`), :mod:`.gym_backend` (any gymnasium task), :mod:`.kernel_backend` (classic control);
+  of :mod:`.arm_resets`), :mod:`.gym_backend` (any gymnasium task), :mod:`.kernel_backend` (classic control),
+  :mod:`.envpool_backend` (MuJoCo and DM Control on EnvPool), :mod:`.vector_backend` (a researcher's vector env);
 - :mod:`.workers`: the gym backend's chunks on a pool of processes (``rwg.workers``);
 - :mod:`.env_checks`: the checks a gymnasium env passes before its returns are cached (reproducible resets,
   observation shapes, finite rewards);

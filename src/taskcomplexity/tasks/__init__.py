@@ -16,6 +16,8 @@ contact
     The forearm–block contact of the obstacle task, modelled the way Bullet's multibody solver does it.
 dynamics
     Batched planar-arm dynamics, integrated the way PyBullet's Featherstone multibody does it.
+envpool_ids
+    Which gymnasium ids EnvPool simulates (gymnasium's MuJoCo tasks, DM Control's): the envpool backend's.
 from_config
     A composed config's task: the seam between the ``task``/``arm``/``reward`` groups and the Task types.
 goal_env
@@ -38,6 +40,8 @@ spec
     Task specifications: the arm, the reward and (optionally) the obstacle of a reaching task.
 step_kernel
     The batched backend's environment step as one fused numba kernel.
+vectorised
+    Which gymnasium ids register a vector env that seeds each of its environments: the vector backend's.
 urdf
     URDF files of the arms (the ``urdf/`` folder): written from an arm spec, read back for the batched backend.
 """
