@@ -56,6 +56,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from taskcomplexity.cores import usable_cores
+from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
 from taskcomplexity.tasks.gym_task import MUJOCO_EXTRA
 
 TASKS = ("Ant-v5", "HalfCheetah-v5", "Hopper-v5", "Walker2d-v5", "Humanoid-v5")
@@ -340,7 +341,7 @@ def main() -> int:
     parser.add_argument("--network", default="pic_h2_64", choices=("pic_h2_64", "mlp32"),
                         help="the policy family (pic_h2_64: study=furuta_benchmark's; mlp32: the default arms')")
     parser.add_argument("--setup-envs", type=int, default=16, help="make_env() calls timed for the env setup")
-    parser.add_argument("--pool-policies", type=int, default=64,
+    parser.add_argument("--pool-policies", type=int, default=POLICIES_PER_POOL,
                         help="N of the envpool runs (one environment per policy; M: as many episodes as the gym runs)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--repeats", type=int, default=3)
