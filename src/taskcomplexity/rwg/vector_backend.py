@@ -30,24 +30,9 @@ from taskcomplexity.tasks.vectorised import make_vector
 
 
 def run_vector(task, policies: ActingBatch, seed: int, episodes: int, common_initial_states: bool = False):
-    """Every episode of every policy of the batch, in waves of W episodes per policy.
-
-    Parameters
-    ----------
-    task : GymTask whose vector env seeds each environment (:func:`taskcomplexity.tasks.vectorised.seeds_each`)
-    policies : ActingBatch of P policies (indices n)
-    seed : int
-        Run seed (reset seeds of the episodes).
-    episodes : int
-        M.
-    common_initial_states : bool
-        Reset episode e of every policy with policy 0's seed (seed, 0, e).
-
-    Returns
-    -------
-    (returns, steps, success) : ndarrays (P, M) float64, int64, bool (``success``: the env's ``info["is_success"]``
-    or ``info["success"]`` at an episode's last step, False when it reports neither).
-    """
+    """Every episode of every policy of the batch, in waves of W episodes per policy: the parameters and the
+    (returns, steps, success) of :meth:`taskcomplexity.rwg.gym_backend.GymRollout.run`, for a task whose vector env
+    seeds each environment (:func:`taskcomplexity.tasks.vectorised.seeds_each`)."""
     n_pol = len(policies)
     width = slots_per_policy(n_pol, episodes)
     rows = policies.indices[:, None] * (not common_initial_states)
