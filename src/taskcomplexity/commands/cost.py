@@ -98,9 +98,9 @@ def pilot_sizes(request) -> tuple[tuple[int, int], tuple[int, int]]:
     return (policies, PILOT_EPISODES[0]), (policies, PILOT_EPISODES[1])
 
 
-def price(request) -> TaskCost:
+def price(request, task_id: str | None = None) -> TaskCost:
     """Run the two pilots of ``request``'s task (after an untimed one that loads what a process loads once: kernels,
-    modules) and extrapolate to its N × M."""
+    modules) and extrapolate to its N × M; ``task_id``: the task's id in its study (default: the task's own)."""
     from taskcomplexity.rwg import chunks, run_rwg
 
     settings = request.settings
@@ -118,7 +118,7 @@ def price(request) -> TaskCost:
     else:  # N = 2 on a batched backend: both pilots are the run itself
         episode_cpu, chunk_cpu = second / long.size, 0.0
     whole = dataclasses.replace(settings, shard=0, shards=1)
-    return TaskCost(request.task.task_id, request.backend, settings.policies, settings.episodes,
+    return TaskCost(task_id or request.task.task_id, request.backend, settings.policies, settings.episodes,
                     int(request.task.max_steps), float(long.mean()), episode_cpu, chunk_cpu,
                     len(chunks(request.task, request.network, whole, request.backend)))
 
@@ -144,15 +144,15 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
     from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
     from taskcomplexity.study.plan import study_requests
 
-    requests = [request for _, request in study_requests(cfg)]
+    entries = study_requests(cfg)
     cores = usable_cores()
     costs = []
-    for request in requests:
+    for entry, request in entries:
         started = time.perf_counter()
-        costs.append(price(request))
-        log.info("priced %s on %s in %.1f s", request.task.task_id, request.backend, time.perf_counter() - started)
+        costs.append(price(request, entry.id))
+        log.info("priced %s on %s in %.1f s", entry.id, request.backend, time.perf_counter() - started)
     shards = int(cfg.rwg.shards)
-    n, m = requests[0].settings.policies, requests[0].settings.episodes
+    n, m = entries[0][1].settings.policies, entries[0][1].settings.episodes
     echo(f"RWG cost of study {cfg.study.name} at N = {n:,} × M = {m:,}, from two pilots per task on this machine "
          f"({cores} usable cores): {PILOT_POLICIES} policies (on envpool {POLICIES_PER_POOL}) × {PILOT_EPISODES[0]} "
          f"and × {PILOT_EPISODES[1]} episodes, or on the {' and '.join(BATCHED)} backends 2 and {PILOT_EPISODES[1]} "
