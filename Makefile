@@ -8,7 +8,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost atlas-bag test test-atlas test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost atlas-bag atlas-cluster cluster-up cluster-down test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -72,8 +72,8 @@ classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_contro
 # pytest-xdist: one worker per core, each test file on one worker (its module fixtures are computed once).
 XDIST := -n auto --dist loadfile
 
-test: $(STAMP) ## run the test suite (CI runs it, then make test-avx2)
-	$(PY) -m pytest -q -m "not slow" $(XDIST)
+test: $(STAMP) ## run the test suite (CI runs it, then make test-cluster and make test-avx2)
+	$(PY) -m pytest -q -m "not slow and not cluster" $(XDIST)
 
 # The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
 PINNED_TESTS := tests/golden tests/metrics/test_log_mean_exp.py tests/tasks/test_batched.py \
@@ -87,10 +87,23 @@ test-atlas: $(STAMP) ## installs the atlas extra and runs the tests that need it
 	$(PY) -m pip install --quiet -e '.[atlas]'
 	$(PY) -m pytest -q $(XDIST) $(ATLAS_TESTS)
 
+# A single-node SLURM cluster on this machine (Debian's slurm-wlm, munge and MariaDB; root), partition `local`: the
+# scheduler the cluster path is tested on. Its state and logs live in outputs/cluster.
+CLUSTER := cluster/local_slurm.sh
+
+cluster-up: ## start a single-node SLURM cluster on this machine, partition `local` (installs it first; needs root)
+	bash $(CLUSTER) up
+
+cluster-down: ## stop the local SLURM cluster: its jobs cancelled, its daemons stopped (logs stay in outputs/cluster/log)
+	bash $(CLUSTER) down
+
+test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the local cluster (starts it; make cluster-down stops it)
+	$(PY) -m pytest -q -m cluster
+
 test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass)
 	$(PY) tests/cpu_paths.py -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)
 
-test-all: $(STAMP) ## every test, including the slow learning checks
+test-all: $(STAMP) cluster-up ## every test, including the slow learning checks and the cluster's
 	$(PY) -m pytest -q
 
 lint: $(STAMP) ## ruff

@@ -40,9 +40,24 @@ EXIT_TERMINATED = 128 + signal.SIGTERM
 log = logging.getLogger("taskcomplexity")
 
 
+_LAST_ERROR: list[str] = []
+
+
+def last_error() -> str | None:
+    """The last ``error:`` line this process printed (without the prefix), or None: what a cluster job that
+    exits with it reports back to the process that submitted it."""
+    return _LAST_ERROR[-1] if _LAST_ERROR else None
+
+
+def say_error(message: str) -> None:
+    """Print ``error: message`` on one line to stderr (and keep it for :func:`last_error`)."""
+    _LAST_ERROR.append(message)
+    print(f"error: {message}", file=sys.stderr, flush=True)
+
+
 def fail(message: str) -> None:
     """Print ``error: message`` on one line to stderr and exit with status 2."""
-    print(f"error: {message}", file=sys.stderr, flush=True)
+    say_error(message)
     raise SystemExit(EXIT_BAD_INPUT)
 
 
@@ -215,8 +230,7 @@ def disk_full(err: OSError, where: str | None = None) -> None:
     if err.errno != errno.ENOSPC and "No space left on device" not in str(err):
         return
     where = err.filename or where or "the outputs directory"
-    print(f"error: disk full while writing {where}; free some space and rerun the same command to resume",
-          file=sys.stderr, flush=True)
+    say_error(f"disk full while writing {where}; free some space and rerun the same command to resume")
     raise SystemExit(EXIT_DISK_FULL) from None
 
 

@@ -40,6 +40,11 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 # torchrl logs through a colour console handler of its own, set up at its import from this variable:
 # its INFO lines (buffers, collectors) are not for the console; its warnings still are.
 os.environ.setdefault("RL_LOGGING_LEVEL", "WARNING")
+# Inside a SLURM job, numba's, OpenMP's and the BLAS's thread pools default to the job's cores, not the node's: a
+# cluster that does not bind jobs to cores shows each job the whole node.
+if os.environ.get("SLURM_CPUS_PER_TASK", "").isdigit():
+    for _variable in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_variable, os.environ["SLURM_CPUS_PER_TASK"])
 
 
 def entry_point(run):

@@ -7,7 +7,7 @@ import pandas as pd
 
 from taskcomplexity.metrics.registry import Metric
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import joined
+from taskcomplexity.report.format import joined, plural
 
 
 def direction(metric: Metric) -> str:
@@ -40,6 +40,39 @@ def float32_note(requests) -> str:
         return ""
     rest = "" if narrow == len(requests) else " (the others float64)"
     return f"; the policies' forward pass in float32 on {narrow} of {len(requests)} tasks{rest}"
+
+
+def _span(jobs: list[str]) -> str:
+    """Job ids, one array's tasks as a range: ``12_0–12_7`` (else listed)."""
+    arrays = {job.split("_")[0] for job in jobs}
+    tasks = [job.split("_", 1)[1] for job in jobs if "_" in job]
+    if len(arrays) == 1 and len(tasks) == len(jobs) > 2 and all(t.isdigit() for t in tasks):
+        ordered = sorted(jobs, key=lambda job: int(job.split("_")[1]))
+        return f"{ordered[0]}–{ordered[-1]}"
+    return ", ".join(jobs)
+
+
+def where_it_ran(records: list[dict]) -> str:
+    """One task's RWG jobs in words: ``3 SLURM jobs (12_0–12_2) on vm; 1 attempt resumed saved work: 14.2 CPU-s
+    in all, the longest part 6.1 s of wall time``.
+
+    ``records`` are the manifest's ``jobs`` (:class:`taskcomplexity.jobs.JobRecord`): one per process that computed a
+    part (a requeued or rerun job has one per attempt); wall time is the longest part's."""
+    if not records:
+        return "not recorded"
+    parts = []
+    for scheduler in dict.fromkeys(r["scheduler"] for r in records):
+        mine = [r for r in records if r["scheduler"] == scheduler]
+        jobs = list(dict.fromkeys(r["job"] for r in mine))
+        nodes = ", ".join(dict.fromkeys(r["node"] for r in mine))
+        what = (f"{plural(len(jobs), 'SLURM job')} ({_span(jobs)})" if scheduler == "slurm"
+                else f"{plural(len(jobs), 'process', 'processes')} ({', '.join(jobs)})")
+        again = [r for r in mine if r.get("restarts", 0) or r.get("reused", 0)]
+        resumed = f"; {plural(len(again), 'attempt')} resumed saved work" if again else ""
+        parts.append(f"{what} on {nodes}{resumed}")
+    cpu = sum(r.get("cpu_seconds", 0.0) for r in records)
+    wall = max(r.get("wall_seconds", 0.0) for r in records)
+    return f"{'; '.join(parts)}: {cpu:,.1f} CPU-s in all, the longest part {wall:,.1f} s of wall time"
 
 
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
@@ -92,6 +125,8 @@ def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -
     for task in data.tasks:
         for artefact in (data.results[task].rwg, data.results[task].metrics):
             versions.update(artefact.manifest.get("versions", {}))
+    items.append(("Where the RWG ran", "; ".join(
+        f"{data.name(t)}: {where_it_ran(data.results[t].rwg.manifest.get('jobs', []))}" for t in data.tasks)))
     items.append(("Software", ", ".join(f"{k} {v}" for k, v in sorted(versions.items()))))
     items.append(("Metrics artefacts", ", ".join(f"{data.name(t)}: {data.results[t].metrics.key}" for t in data.tasks)))
     items.append(("Verdict artefact", data.verdict_key))

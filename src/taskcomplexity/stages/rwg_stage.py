@@ -23,6 +23,7 @@ import pandas as pd
 
 from taskcomplexity.config import canonical, result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
+from taskcomplexity.jobs import JobMeter, saved_records
 from taskcomplexity.policies.families import FamilySpec
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.progress import Progress
@@ -177,16 +178,17 @@ def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: Pr
             completed[(start, stop)] = chunk
     if completed:
         log.info("resuming %s from %d saved chunks", request.label, len(completed))
-    result = run_rwg(
-        request.task,
-        request.network,
-        request.prior,
-        settings,
-        request.backend,
-        completed=completed,
-        on_chunk=lambda key, chunk: _save_chunk(_chunk_file(scratch, *key), chunk),
-        progress=progress,
-    )
+    part = f"shard {shard} of {settings.shards}" if settings.shards > 1 else "all"
+    meter = JobMeter(part, reused=sum(len(chunk.policy) for chunk in completed.values()))
+
+    def on_chunk(key: tuple[int, int], chunk: ReturnChunk) -> None:
+        _save_chunk(_chunk_file(scratch, *key), chunk)
+        meter.units += len(chunk.policy)
+        meter.save(scratch)  # a job killed later still leaves the record of the work it saved
+
+    result = run_rwg(request.task, request.network, request.prior, settings, request.backend,
+                     completed=completed, on_chunk=on_chunk, progress=progress)
+    meter.save(scratch)  # the final record: with the CPU of the pool's workers, which have ended
     _save_chunk(shard_path, result)
     for start, stop in chunks(request.task, request.network, settings, request.backend):
         _chunk_file(scratch, start, stop).unlink(missing_ok=True)
@@ -347,6 +349,7 @@ def run_rwg_stage(
             "contacts": "model" if request.models_contacts else "pybullet",
             "modelled_contact_episodes": merged.contacts,
             "compute_seconds": round(time.time() - started, 3),
+            "jobs": saved_records(scratch),
         }
 
     def cleanup() -> None:
