@@ -1,0 +1,201 @@
+"""The cluster path on a real scheduler: jobs sent through ``hydra/launcher=cluster`` to the local single-node SLURM
+(``make cluster-up``, partition ``local``), and what must hold there.
+
+- A sharded RWG multirun is a job array; the last shard merges, and the artefact is byte for byte the one-job run's.
+- A failing shard comes back as one line with its job id and log; the other shards still merge.
+- A job cancelled mid-shard (``scancel``) is named with its state; the rerun resumes from its saved chunks.
+- A job that reaches its time limit is requeued by submitit and resumes from its saved chunks.
+- In every case the artefact's job records (``manifest.json``: ``jobs``) add up to N policies computed once each.
+- Two studies sent at once onto one cache both finish, each artefact valid and computed once; their reports' Methods
+  name the SLURM jobs that computed their returns.
+
+Each test waits on real jobs; ``make test-cluster`` runs them (CI too, between ``make cluster-up`` and
+``make cluster-down``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.cluster
+
+ROOT = Path(__file__).resolve().parents[2]
+HERE = Path(__file__).resolve().parent
+RWG = str(ROOT / "pipelines" / "rwg.py")
+STUDY = str(ROOT / "pipelines" / "study.py")
+PARTITION = "local"
+LAUNCHER = ("hydra/launcher=cluster", f"hydra.launcher.partition={PARTITION}")
+SLOW = ("task=gym", "task.env_id=slow_drift:SlowDrift-v0", "rwg.chunk_policies=1")
+"""A task whose steps take wall time (``SLOW_DRIFT_STEP_SECONDS``), one policy per chunk: a chunk saved every few
+seconds."""
+
+
+@pytest.fixture(scope="module")
+def environment() -> dict:
+    """The environment of a user of the local cluster: its configuration, and the slow env importable."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST_", "SLURM_JOB", "HYDRA_"))}
+    conf = ROOT / "outputs" / "cluster" / "etc" / "slurm.conf"
+    if "SLURM_CONF" not in env and conf.is_file():
+        env["SLURM_CONF"] = str(conf)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(HERE), env.get("PYTHONPATH", "")) if p)
+    answer = subprocess.run(["sinfo", "-h", "-p", PARTITION, "-o", "%T"], capture_output=True, text=True, env=env)
+    if answer.returncode != 0 or not re.search(r"idle|mixed|allocated", answer.stdout):
+        pytest.fail(f"no SLURM partition '{PARTITION}' answers (sinfo: {answer.stderr.strip() or answer.stdout.strip()}):"
+                    " start the local cluster with make cluster-up")
+    return env
+
+
+def run(*args: str, env: dict, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=timeout)
+
+
+def start(*args: str, env: dict, cwd: Path) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=cwd, env=env)
+
+
+def wait_for(condition, seconds: float, what: str):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if (found := condition()):
+            return found
+        time.sleep(0.5)
+    raise AssertionError(f"{what} did not happen within {seconds:.0f} s")
+
+
+def sacct(job: str, env: dict, *, attempts: bool = False) -> list[dict]:
+    """The accounting rows of ``job`` (its steps included) as sacct reports them; with ``attempts``, one row per
+    attempt of a requeued job (``--duplicates``)."""
+    command = ["sacct", "-j", job, "--parsable2", "-o", "JobID,State,NodeList,TotalCPU", *(["-D"] if attempts else [])]
+    out = subprocess.run(command, capture_output=True, text=True, env=env, check=True).stdout.splitlines()
+    head = out[0].split("|")
+    return [dict(zip(head, line.split("|"), strict=True)) for line in out[1:]]
+
+
+def artefact(outputs: Path) -> Path:
+    [found] = (outputs / "cache" / "rwg").glob("[!.]*/returns.parquet")
+    return found.parent
+
+
+def jobs_of(outputs: Path) -> list[dict]:
+    return json.loads((artefact(outputs) / "manifest.json").read_text())["jobs"]
+
+
+def array_tasks(sweep: Path) -> list[str]:
+    """The job ids (``<array>_<task>``) submitit made folders for under the sweep directory."""
+    found = [p.name for p in (sweep / ".submitit").glob("[0-9]*_[0-9]*") if p.is_dir()]
+    return sorted(found, key=lambda j: int(j.split("_")[1]))
+
+
+def one_job_run(tmp_path: Path, *overrides: str, env: dict) -> Path:
+    """The same RWG run as one job on this machine (no slow steps): the reference artefact."""
+    outputs = tmp_path / "single"
+    done = run(RWG, *overrides, f"paths.outputs={outputs}", env={**env, "SLOW_DRIFT_STEP_SECONDS": "0"}, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return artefact(outputs)
+
+
+def test_a_sharded_rwg_job_array_merges_into_the_one_job_artefact(environment, tmp_path):
+    overrides = ("arm=one_link_1m65", "experiment=smoke", "rwg.policies=16")
+    sweep, outputs = tmp_path / "sweep", tmp_path / "sharded"
+    done = run(RWG, "-m", *LAUNCHER, *overrides, "rwg.shards=4", "rwg.shard=range(4)", f"paths.outputs={outputs}",
+               f"hydra.sweep.dir={sweep}", env=environment, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "Submitit 'slurm'" in done.stdout + done.stderr
+    jobs = array_tasks(sweep)
+    assert len(jobs) == 4 and len({j.split("_")[0] for j in jobs}) == 1  # one array of 4 tasks
+    for job in jobs:
+        [row] = [r for r in sacct(job, environment) if r["JobID"] == job]
+        assert row["State"] == "COMPLETED" and row["NodeList"]
+    merged = artefact(outputs)
+    single = one_job_run(tmp_path, *overrides, env=environment)
+    assert merged.name == single.name  # the same key
+    assert (merged / "returns.parquet").read_bytes() == (single / "returns.parquet").read_bytes()
+    records = jobs_of(outputs)
+    assert sorted(r["job"] for r in records) == jobs and {r["scheduler"] for r in records} == {"slurm"}
+    assert sorted(r["part"] for r in records) == [f"shard {i} of 4" for i in range(4)]
+    assert sum(r["units"] for r in records) == 16 and all(r["reused"] == 0 for r in records)
+    # The merge is done by one shard's job: the last to find every shard present.
+    logs = [next((sweep / ".submitit" / job).glob("*_log.out")).read_text() for job in jobs]
+    assert sum("computed returns" in log for log in logs) == 1
+    assert sum(bool(re.search(r"shard \d/4 done", log)) for log in logs) == 3
+
+
+def test_a_failing_shard_is_one_line_with_its_job_and_log_and_the_others_merge(environment, tmp_path):
+    outputs, sweep = tmp_path / "out", tmp_path / "sweep"
+    done = run(RWG, "-m", *LAUNCHER, "arm=one_link_1m65", "experiment=smoke", "rwg.shards=3", "rwg.shard=range(4)",
+               f"paths.outputs={outputs}", f"hydra.sweep.dir={sweep}", env=environment, cwd=tmp_path)
+    assert done.returncode == 2, done.stderr[-3000:]
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    job = array_tasks(sweep)[3]
+    log = sweep / ".submitit" / job / f"{job}_0_log.err"
+    assert errors == [f"error: arm=one_link_1m65 experiment=smoke rwg.shards=3 rwg.shard=3 paths.outputs={outputs}: "
+                      f"rwg.shard must be in [0, 2] (rwg.shards=3), got 3 [job {job} on {os.uname().nodename} "
+                      f"(log: {log})]"]
+    assert "Traceback" not in done.stderr
+    assert "rwg.shard must be in [0, 2]" in log.read_text()
+    assert sum(r["units"] for r in jobs_of(outputs)) == 10  # shards 0-2 merged: experiment=smoke's N
+
+
+def test_a_cancelled_job_is_named_and_the_rerun_resumes_from_its_saved_chunks(environment, tmp_path):
+    slow = {**environment, "SLOW_DRIFT_STEP_SECONDS": "0.05"}  # 1 s per episode: 4 s per chunk
+    overrides = (*SLOW, "rwg.policies=8", "rwg.episodes=4")
+    outputs, sweep = tmp_path / "out", tmp_path / "sweep"
+    command = (RWG, "-m", *LAUNCHER, *overrides, "rwg.shards=2", "rwg.shard=range(2)", f"paths.outputs={outputs}",
+               f"hydra.sweep.dir={sweep}")
+    sweeping = start(*command, env=slow, cwd=tmp_path)
+    scratch = wait_for(lambda: next((outputs / "cache" / "rwg").glob(".partial-*"), None), 120, "a scratch directory")
+    wait_for(lambda: (scratch / "chunk-0000004-0000005.npz").exists(), 120, "shard 1's first saved chunk")
+    job = array_tasks(sweep)[1]
+    subprocess.run(["scancel", job], env=environment, check=True)
+    _, stderr = sweeping.communicate(timeout=300)
+    assert sweeping.returncode == 1
+    [error] = [line for line in stderr.splitlines() if line.startswith("error:")]
+    assert error.startswith(f"error: job {job} ended without a result (state: CANCELLED")
+    assert f"{job}_0_log.err" in error and "rerun the same command to resume" in error
+    assert wait_for(lambda: [r for r in sacct(job, environment) if r["JobID"] == job and "CANCELLED" in r["State"]],
+                    30, "sacct's CANCELLED state")
+    saved = len(list(scratch.glob("chunk-*.npz")))
+    assert saved >= 1
+
+    again = run(*command[:-1], f"hydra.sweep.dir={tmp_path / 'sweep-again'}", env=slow, cwd=tmp_path)
+    assert again.returncode == 0, again.stderr[-3000:]
+    records = jobs_of(outputs)
+    shard1 = [r for r in records if r["part"] == "shard 1 of 2"]
+    assert [r["job"] for r in shard1][0] == job and len(shard1) == 2
+    cancelled, resumed = shard1
+    assert resumed["reused"] == cancelled["units"] == saved >= 1   # what the cancelled job saved, nothing more
+    assert sum(r["units"] for r in records) == 8   # every policy computed once
+    single = one_job_run(tmp_path, *overrides, env=environment)
+    assert (artefact(outputs) / "returns.parquet").read_bytes() == (single / "returns.parquet").read_bytes()
+
+
+def test_a_job_at_its_time_limit_is_requeued_and_resumes_from_its_saved_chunks(environment, tmp_path):
+    # One job of about 100 s at a time limit of 1 min: SLURM signals it 30 s before the limit (within its scheduling
+    # period), submitit requeues it, and the requeued job resumes; up to 3 requeues (max_num_timeout).
+    slow = {**environment, "SLOW_DRIFT_STEP_SECONDS": "0.05"}
+    overrides = (*SLOW, "rwg.policies=25", "rwg.episodes=4")
+    outputs, sweep = tmp_path / "out", tmp_path / "sweep"
+    done = run(RWG, "-m", *LAUNCHER, "hydra.launcher.timeout_min=1", "hydra.launcher.signal_delay_s=30", *overrides,
+               f"paths.outputs={outputs}", f"hydra.sweep.dir={sweep}", env=slow, cwd=tmp_path, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    [job] = array_tasks(sweep)
+    log = next((sweep / ".submitit" / job).glob("*_log.err")).read_text()
+    assert "this job is timed-out" in log and "Requeued" not in done.stderr
+    records = jobs_of(outputs)
+    assert len(records) >= 2 and {r["job"] for r in records} == {job}
+    assert [r["restarts"] for r in records] == list(range(len(records)))   # one record per attempt
+    assert all(later["reused"] == earlier["reused"] + earlier["units"] for earlier, later in zip(records, records[1:]))
+    assert sum(r["units"] for r in records) == 25   # every policy computed once over the attempts
+    attempts = [r["State"] for r in sacct(job, environment, attempts=True) if r["JobID"] == job]
+    assert attempts == ["REQUEUED"] * (len(records) - 1) + ["COMPLETED"]
+    single = one_job_run(tmp_path, *overrides, env=environment)
+    assert (artefact(outputs) / "returns.parquet").read_bytes() == (single / "returns.parquet").read_bytes()
