@@ -8,7 +8,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost atlas-bag atlas-cluster cluster-up cluster-down test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -55,6 +55,22 @@ atlas-cost: $(STAMP) ## what make atlas (with ARGS=… its overrides, e.g. Furut
 	$(PY) -m pip install --quiet -e '.[atlas]'
 	$(PY) pipelines/cost.py experiment=atlas $(ARGS)
 
+# Furuta et al.'s own budget on make atlas's 13 tasks, through a SLURM cluster (the local one of make cluster-up by
+# default; PARTITION=<yours> on a real one): priced first (make atlas-cost), then every task's RWG as one job array of
+# ATLAS_SHARDS shards per task, then the study (metrics, verdict, report) as one job that reads them from the cache.
+PARTITION ?= local
+ATLAS_BUDGET ?= study.policies=1000 study.episodes=1000
+ATLAS_SHARDS ?= 8
+ON_CLUSTER = hydra/launcher=cluster hydra.launcher.partition=$(PARTITION)
+
+atlas-cluster: $(STAMP) ## Furuta et al.'s budget (13 tasks, N = M = 1000) priced, then sent to SLURM: RWG shards as a job array, the study as a job (PARTITION=<yours>)
+	$(PY) -m pip install --quiet -e '.[atlas]'
+	$(PY) pipelines/cost.py experiment=atlas $(ATLAS_BUDGET) rwg.shards=$(ATLAS_SHARDS) $(ON_CLUSTER) $(ARGS)
+	$(PY) pipelines/rwg.py -m experiment=atlas $(ATLAS_BUDGET) $(ON_CLUSTER) \
+		rwg.entry=$$($(PY) -m taskcomplexity.commands.study_tasks furuta_benchmark) \
+		rwg.shards=$(ATLAS_SHARDS) 'rwg.shard=range($(ATLAS_SHARDS))' $(ARGS)
+	$(PY) pipelines/study.py -m experiment=atlas $(ATLAS_BUDGET) $(ON_CLUSTER) $(ARGS)
+
 # The 28 cells of Furuta et al.'s sweep: 7 architectures × 4 priors (each cell is one study=classic_control job).
 CLASSIC_NETWORKS := pic_linear,pic_h1_4,pic_h1_32,pic_h1_64,pic_h2_4,pic_h2_32,pic_h2_64
 CLASSIC_PRIORS := normal,uniform,xavier_normal_tanh,xavier_uniform_tanh
@@ -96,6 +112,10 @@ cluster-up: ## start a single-node SLURM cluster on this machine, partition `loc
 
 cluster-down: ## stop the local SLURM cluster: its jobs cancelled, its daemons stopped (logs stay in outputs/cluster/log)
 	bash $(CLUSTER) down
+
+cluster-cost: $(STAMP) cluster-up ## make atlas-cost's prediction beside the CPU the local cluster's jobs used (sacct), per task (ARGS=<overrides>)
+	$(PY) -m pip install --quiet -e '.[atlas]'
+	$(PY) bench/cluster_cost.py $(ARGS)
 
 test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the local cluster (starts it; make cluster-down stops it)
 	$(PY) -m pytest -q -m cluster

@@ -79,7 +79,8 @@ SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
 CredType=cred/munge
-AuthInfo=socket=$STATE/munge/munge.socket.2
+# cred_expire: also how long a requeued job waits before it may start again (default 120 s; a local node needs less).
+AuthInfo=socket=$STATE/munge/munge.socket.2,cred_expire=15
 MpiDefault=none
 ProctrackType=proctrack/linuxproc
 TaskPlugin=task/none
@@ -164,7 +165,7 @@ start_slurm() {
     pid_of slurmctld >/dev/null || slurmctld -c
     wait_for 30 slurmctld scontrol ping
     pid_of slurmd >/dev/null || slurmd -c
-    wait_for 60 "the node" bash -c "sinfo -h -p $PARTITION -o %T | grep -qE '^(idle|mixed|allocated)'"
+    wait_for 60 "the node" bash -c "sinfo -h -p $PARTITION -o %T | grep -qE '^(idle|mixed|allocated|completing)'"
 }
 
 link_system_config() {
@@ -181,7 +182,7 @@ link_system_config() {
 
 running() {  # every daemon alive and the node answering
     for daemon in "${DAEMONS[@]}"; do pid_of "$daemon" >/dev/null || return 1; done
-    sinfo -h -p "$PARTITION" -o %T 2>/dev/null | grep -qE '^(idle|mixed|allocated)'
+    sinfo -h -p "$PARTITION" -o %T 2>/dev/null | grep -qE '^(idle|mixed|allocated|completing)'
 }
 
 up() {

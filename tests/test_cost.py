@@ -16,7 +16,10 @@ def test_the_estimate_is_n_times_m_episodes_plus_the_chunks_fixed_part():
     assert cost.cpu_seconds == pytest.approx(1000 * 1000 * 0.02 + 250 * 3.0)
 
 
-def test_every_task_of_the_study_is_priced_on_its_backend_and_the_table_adds_up(compose_config):
+def test_every_task_of_the_study_is_priced_on_its_backend_and_the_table_adds_up(compose_config, monkeypatch):
+    import taskcomplexity.commands.cost as cost
+
+    monkeypatch.setattr(cost, "job_start_cpu", lambda entry_id, typed: 5.0)
     cfg = compose_config("study=classic_control", "study.policies=400", "study.episodes=50", "rwg.shards=4")
     lines = []
     costs = estimate(cfg, echo=lines.append)
@@ -29,7 +32,10 @@ def test_every_task_of_the_study_is_priced_on_its_backend_and_the_table_adds_up(
     assert lines[0].startswith("RWG cost of study classic_control at N = 400 × M = 50, from two pilots per task")
     total = sum(c.cpu_seconds for c in costs)
     assert any(line.startswith(f"total: {total / 3600:.2f} CPU-hours") for line in lines)
-    assert lines[-1] == f"with rwg.shards=4: {_hours(total / 4)} of CPU per shard"
+    assert lines[-2] == (f"as jobs: 5 tasks × rwg.shards=4 = 20 jobs, each starting a fresh process (5.0 CPU-s on "
+                         f"kernel, measured by starting one): {(total + 20 * 5.0) / 3600:.2f} CPU-hours in all")
+    longest = max(costs, key=lambda c: c.cpu_seconds)
+    assert lines[-1] == f"the longest job: a shard of {longest.task}, {_hours(longest.cpu_seconds / 4 + 5.0)} of CPU"
     assert not math.isnan(total)
 
 
@@ -41,12 +47,25 @@ def test_a_bad_budget_is_refused_before_any_pilot(compose_config):
 def test_a_shard_is_set_against_the_cluster_launchers_time_limit(compose_config, monkeypatch):
     import taskcomplexity.commands.cost as cost
 
+    monkeypatch.setattr(cost, "job_start_cpu", lambda entry_id, typed: 1.0)
     cfg = compose_config("study=classic_control", "study.policies=64", "study.episodes=8", "rwg.shards=2")
-    for limit in (1e6, 1e-3):  # seconds of the launcher's time limit, on 2 cores per job
+    # A job needs longest / 2 + 1 CPU-s, on 2 cores: a limit between 0.5 s (its start-up's wall time) and that
+    # half is beyond it but met by more shards; below 0.5 s no number of shards fits.
+    longest = max(c.cpu_seconds for c in estimate(cfg, echo=lambda line: None))
+    between = (0.5 + (longest / 2 + 1.0) / 2) / 2
+    for limit in (1e6, between, 0.4):  # seconds of the launcher's time limit, on 2 cores per job
         monkeypatch.setattr(cost, "_launcher_limit", lambda cfg, limit=limit: (limit, 2))
         lines = []
-        total = sum(c.cpu_seconds for c in estimate(cfg, echo=lines.append))
-        if limit > 1:
+        longest = max(c.cpu_seconds for c in estimate(cfg, echo=lines.append))
+        if limit > 1e3:
             assert lines[-1].endswith(f"on a job's 2 cores against the launcher's limit of {_hours(limit)}: within it")
+        elif limit > 0.5:
+            assert lines[-1].endswith(f"beyond it, use rwg.shards >= {math.ceil(longest / (2 * limit - 1.0))}")
         else:
-            assert lines[-1].endswith(f"beyond it, use rwg.shards >= {math.ceil(total / (2 * limit))}")
+            assert lines[-1].endswith("beyond it, raise hydra.launcher.timeout_min")
+
+
+def test_a_jobs_start_up_is_measured_by_starting_one():
+    from taskcomplexity.commands.cost import job_start_cpu
+
+    assert 0.5 < job_start_cpu("CartPole-v0", ["study=classic_control", "study.policies=1000", "rwg.shards=8"]) < 120

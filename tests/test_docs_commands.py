@@ -8,7 +8,8 @@ prints it. Only the budget changes: :data:`BUDGETS` lists each substitution with
 substitution that no block uses fails. A block that cannot run here says so on the line before it,
 ``<!-- illustrative: <reason> -->``; every other block is run (``test_every_unmarked_block_ran``): here, or
 with the slow tests (``make test-all``) when it takes minutes of CPU and CI covers its path elsewhere
-(:data:`SLOW`), or by another test (:data:`RUN_ELSEWHERE`: the README's own-task block, ``tests/test_readme.py``).
+(:data:`SLOW`), or with the cluster tests (``make test-cluster``) when it sends jobs to the local SLURM cluster
+(:data:`CLUSTER`), or by another test that names its page (:data:`RUN_ELSEWHERE`).
 
 ``python tests/test_docs_commands.py`` lists the blocks and what happens to each.
 """
@@ -63,12 +64,24 @@ BUDGETS: list[tuple[str, str, str]] = [
      "prior=normal,uniform,xavier_normal_tanh,xavier_uniform_tanh study.policies=100 study.episodes=100",
      "network=pic_linear,pic_h1_4 prior=normal study.policies=10 study.episodes=4 metrics.bins=1000 "
      "metrics.resamples=20", "classic-sweep's trial: 28 cells of 5 tasks; 2 cells at a tiny N and M"),
+    ("network=pic_linear,pic_h1_4,pic_h1_32,pic_h1_64,pic_h2_4,pic_h2_32,pic_h2_64 "
+     "prior=normal,uniform,xavier_normal_tanh,xavier_uniform_tanh hydra/launcher=cluster",
+     "network=pic_linear,pic_h1_4 prior=normal study.policies=10 study.episodes=4 metrics.bins=1000 "
+     "metrics.resamples=20 hydra/launcher=cluster",
+     "classic-sweep on the cluster: 28 cells at N = M = 1000 as jobs; 2 cells at a tiny N and M"),
+    ("arm=two_link_obstacle rwg.shards=64 'rwg.shard=range(64)'",
+     "arm=two_link_obstacle rwg.shards=4 'rwg.shard=range(4)' rwg.policies=16 rwg.episodes=4",
+     "the obstacle task at N = 10⁴ × M = 500 in 64 jobs; at N = 16 × M = 4 in 4 jobs"),
+    ("study.policies=1000 study.episodes=1000", "study.policies=8 study.episodes=4",
+     "make atlas-cluster: Furuta et al.'s N = M = 1000 (63 CPU-hours); N = 8 × M = 4"),
+    ("rwg.shards=8 'rwg.shard=range(8)'", "rwg.shards=2 'rwg.shard=range(2)'",
+     "make atlas-cluster: 13 tasks × 8 shards, 104 jobs; × 2 shards"),
+    ("rwg.shards=8 hydra/launcher=cluster", "rwg.shards=2 hydra/launcher=cluster",
+     "make atlas-cluster's price: of the 2 shards it sends"),
 ]
 
 SLOW = {
     "# the six contact-free tasks × 8 shards": "the launchers' paths run in CI in tests/stages/test_scale_out.py",
-    "make paper-jobs EXPERIMENT=smoke": "7 SAC jobs through submitit: 2 CPU-minutes; tests/rl/test_sac_entry.py "
-                                        "runs one study task's SAC runs in CI",
     "make classic-sweep ARGS='study.policies=100": "a sweep of 2 cells of 5 tasks: half a CPU-minute; "
                                                    "tests/report/test_sweep_report.py checks the sweep report in CI",
 }
@@ -77,8 +90,25 @@ SLOW = {
 RUN_ELSEWHERE = {
     "README.md": {".venv/bin/python pipelines/rwg.py task=gym task.env_id=Pendulum-v1 rwg.policies=64 "
                   "rwg.episodes=8\nmkdir -p ~/lab/conf/study": "tests/test_readme.py"},
+    "docs/tutorials/scale-out.md": {
+        "make cluster-up": "tests/cluster/test_local_cluster.py",
+        "make cluster-down": "tests/cluster/test_local_cluster.py",
+        "make paper-jobs EXPERIMENT=smoke": "tests/cluster/test_slurm.py",
+        ".venv/bin/python pipelines/study.py experiment=smoke sac.enabled=true": "tests/cluster/test_slurm.py",
+    },
 }
-"""Blocks another test runs as printed (page → the block's start → the test)."""
+"""Blocks another test runs as printed (page → the block's start → the test): the README's own-task block; the
+local cluster's start and stop (a test that stops it starts it again); the SAC jobs and the study that reads them
+(a test that checks the study trained nothing)."""
+
+CLUSTER = {
+    ".venv/bin/python pipelines/rwg.py -m hydra/launcher=cluster": "a job array on the local SLURM cluster",
+    "make atlas-cluster PARTITION=local": "13 tasks × 2 shards as a job array and the study as a job, on the local "
+                                          "SLURM cluster",
+    "make classic-sweep ARGS='hydra/launcher=cluster": "a sweep's cells as jobs on the local SLURM cluster",
+}
+"""Blocks that send jobs to the local SLURM cluster (``make cluster-up``): run by ``make test-cluster`` (marker
+``cluster``), as CI does between starting and stopping the cluster."""
 
 DRIFT = '''"""The tutorial's own env: a point drifting on a line, pushed by the action (test_docs_commands)."""
 import gymnasium as gym
@@ -155,9 +185,17 @@ def slow(block: Block) -> str | None:
     return next((why for start, why in SLOW.items() if block.text.startswith(start)), None)
 
 
+def on_cluster(block: Block) -> str | None:
+    return next((why for start, why in CLUSTER.items() if block.text.startswith(start)), None)
+
+
+def marks(block: Block) -> list:
+    return [*([pytest.mark.slow] if slow(block) else []), *([pytest.mark.cluster] if on_cluster(block) else [])]
+
+
 ALL = [block for page in PAGES for block in blocks(page)]
 RUNNABLE = [block for block in ALL if block.illustrative is None and run_elsewhere(block) is None]
-PARAMS = [pytest.param(block, id=block.id, marks=[pytest.mark.slow] if slow(block) else []) for block in RUNNABLE]
+PARAMS = [pytest.param(block, id=block.id, marks=marks(block)) for block in RUNNABLE]
 RAN: set[str] = set()
 
 
@@ -263,9 +301,10 @@ def test_every_unmarked_block_ran(request):
     # Every block is illustrative, run by another test, or one of this file's runs; every run selected here
     # passed (the slow ones run with make test-all).
     for block in ALL:
-        if block.illustrative is None and block not in RUNNABLE:
-            assert "## Measure your own task" in (ROOT / run_elsewhere(block)).read_text(encoding="utf-8")
+        if block.illustrative is None and block not in RUNNABLE:   # the other test names the block's page
+            assert block.page.name in (ROOT / run_elsewhere(block)).read_text(encoding="utf-8"), block.id
     assert all(any(block.text.startswith(start) for block in RUNNABLE) for start in SLOW), "a stale SLOW entry"
+    assert all(any(block.text.startswith(start) for block in RUNNABLE) for start in CLUSTER), "a stale CLUSTER entry"
     if getattr(request.config.option, "dist", "no") not in ("no", "loadfile"):
         pytest.skip("the blocks ran on other workers")   # make test: --dist loadfile keeps this file on one worker
     selected = {item.callspec.id for item in request.session.items
@@ -276,5 +315,6 @@ def test_every_unmarked_block_ran(request):
 if __name__ == "__main__":  # list the blocks and what happens to each
     for b in ALL:
         status = f"illustrative: {b.illustrative}" if b.illustrative else (
-            f"run by {run_elsewhere(b)}" if run_elsewhere(b) else f"run (slow: {slow(b)})" if slow(b) else "run")
+            f"run by {run_elsewhere(b)}" if run_elsewhere(b) else f"run (slow: {slow(b)})" if slow(b) else
+            f"run (cluster: {on_cluster(b)})" if on_cluster(b) else "run")
         print(f"{b.id:<40} {status}\n    " + commands(b).strip().replace("\n", "\n    "), file=sys.stdout)

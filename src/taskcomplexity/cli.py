@@ -34,6 +34,7 @@ NOT_GROUPS = ("hydra",)
 """Directories of the packaged configs that are no group a user chooses an option of."""
 EXIT_BAD_INPUT = 2
 EXIT_DISK_FULL = 3
+EXIT_OUT_OF_TIME = 124
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 128 + signal.SIGTERM
 
@@ -221,6 +222,11 @@ class Terminated(BaseException):
     """SIGTERM arrived (``kill``, a cluster's time limit, ``docker stop``): unwinds like Ctrl-C."""
 
 
+class OutOfTime(BaseException):
+    """A cluster job reached its time limit with no requeue left (:mod:`taskcomplexity.commands.cluster`): unwinds
+    like Ctrl-C, so that no code on the way (an env's error handling) takes it for an error of its own."""
+
+
 def _terminated(signum, frame) -> None:
     raise Terminated
 
@@ -240,8 +246,8 @@ def one_line_errors(fn):
     Only :class:`~taskcomplexity.errors.TaskComplexityError` (bad config values, unknown ids, damaged
     artefacts) is shortened; anything else is a bug and keeps its traceback (exit status 1).
     ``HYDRA_FULL_ERROR=1`` shows the traceback of input errors too. Three faults are not bugs and end
-    in one line too, with the finished work kept for the rerun: Ctrl-C (exit 130), SIGTERM (exit 143)
-    and a full disk (exit 3).
+    in one line too, with the finished work kept for the rerun: Ctrl-C (exit 130), SIGTERM (exit 143),
+    a full disk (exit 3) and a cluster job's last time limit (exit 124).
     """
 
     @functools.wraps(fn)
@@ -265,6 +271,10 @@ def one_line_errors(fn):
         except Terminated:
             print("terminated (SIGTERM); rerun the same command to resume", file=sys.stderr, flush=True)
             raise SystemExit(EXIT_TERMINATED) from None
+        except OutOfTime as reason:
+            say_error(f"{reason}; the work it saved is kept: rerun the same command to resume, with a longer "
+                      "hydra.launcher.timeout_min or more rwg.shards")
+            raise SystemExit(EXIT_OUT_OF_TIME) from None
         except OSError as err:
             disk_full(err, f"the outputs directory {_outputs_of(args)}")
             raise

@@ -29,6 +29,7 @@ pytestmark = pytest.mark.cluster
 
 ROOT = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).resolve().parent
+PAGE = ROOT / "docs" / "tutorials" / "scale-out.md"
 RWG = str(ROOT / "pipelines" / "rwg.py")
 STUDY = str(ROOT / "pipelines" / "study.py")
 PARTITION = "local"
@@ -47,7 +48,7 @@ def environment() -> dict:
         env["SLURM_CONF"] = str(conf)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(HERE), env.get("PYTHONPATH", "")) if p)
     answer = subprocess.run(["sinfo", "-h", "-p", PARTITION, "-o", "%T"], capture_output=True, text=True, env=env)
-    if answer.returncode != 0 or not re.search(r"idle|mixed|allocated", answer.stdout):
+    if answer.returncode != 0 or not re.search(r"idle|mixed|allocated|completing", answer.stdout):
         pytest.fail(f"no SLURM partition '{PARTITION}' answers (sinfo: {answer.stderr.strip() or answer.stdout.strip()}):"
                     " start the local cluster with make cluster-up")
     return env
@@ -90,9 +91,10 @@ def jobs_of(outputs: Path) -> list[dict]:
 
 
 def array_tasks(sweep: Path) -> list[str]:
-    """The job ids (``<array>_<task>``) submitit made folders for under the sweep directory."""
-    found = [p.name for p in (sweep / ".submitit").glob("[0-9]*_[0-9]*") if p.is_dir()]
-    return sorted(found, key=lambda j: int(j.split("_")[1]))
+    """The job ids submitit made folders for under the sweep directory: ``<array>_<task>`` for the tasks of an
+    array, a plain job id for a sweep of one job (submitit sends it as a job of its own)."""
+    found = [p.name for p in (sweep / ".submitit").glob("[0-9]*") if p.is_dir()]
+    return sorted(found, key=lambda job: tuple(int(part) for part in job.split("_")))
 
 
 def one_job_run(tmp_path: Path, *overrides: str, env: dict) -> Path:
@@ -179,12 +181,14 @@ def test_a_cancelled_job_is_named_and_the_rerun_resumes_from_its_saved_chunks(en
 
 
 def test_a_job_at_its_time_limit_is_requeued_and_resumes_from_its_saved_chunks(environment, tmp_path):
-    # One job of about 100 s at a time limit of 1 min: SLURM signals it 30 s before the limit (within its scheduling
-    # period), submitit requeues it, and the requeued job resumes; up to 3 requeues (max_num_timeout).
+    # One job of about 50 s at a time limit of 1 min. SLURM's controller checks time limits every 30 s and signals
+    # a job at the first check from which the next would come too late: with signal_delay_s=5, 25 to 55 s after
+    # it started. Submitit requeues it and the requeued job resumes; 6 requeues allowed (the default is 3).
     slow = {**environment, "SLOW_DRIFT_STEP_SECONDS": "0.05"}
-    overrides = (*SLOW, "rwg.policies=25", "rwg.episodes=4")
+    overrides = (*SLOW, "rwg.policies=12", "rwg.episodes=4")
     outputs, sweep = tmp_path / "out", tmp_path / "sweep"
-    done = run(RWG, "-m", *LAUNCHER, "hydra.launcher.timeout_min=1", "hydra.launcher.signal_delay_s=30", *overrides,
+    done = run(RWG, "-m", *LAUNCHER, "hydra.launcher.timeout_min=1", "hydra.launcher.signal_delay_s=5",
+               "hydra.launcher.max_num_timeout=6", *overrides,
                f"paths.outputs={outputs}", f"hydra.sweep.dir={sweep}", env=slow, cwd=tmp_path, timeout=900)
     assert done.returncode == 0, done.stderr[-3000:]
     [job] = array_tasks(sweep)
@@ -192,10 +196,75 @@ def test_a_job_at_its_time_limit_is_requeued_and_resumes_from_its_saved_chunks(e
     assert "this job is timed-out" in log and "Requeued" not in done.stderr
     records = jobs_of(outputs)
     assert len(records) >= 2 and {r["job"] for r in records} == {job}
-    assert [r["restarts"] for r in records] == list(range(len(records)))   # one record per attempt
+    restarts = [r["restarts"] for r in records]   # one record per attempt that saved a chunk
+    assert restarts == sorted(set(restarts)) and restarts[-1] >= 1 and records[0]["reused"] == 0
     assert all(later["reused"] == earlier["reused"] + earlier["units"] for earlier, later in zip(records, records[1:]))
-    assert sum(r["units"] for r in records) == 25   # every policy computed once over the attempts
+    assert sum(r["units"] for r in records) == 12   # every policy computed once over the attempts
     attempts = [r["State"] for r in sacct(job, environment, attempts=True) if r["JobID"] == job]
-    assert attempts == ["REQUEUED"] * (len(records) - 1) + ["COMPLETED"]
+    assert attempts == ["REQUEUED"] * restarts[-1] + ["COMPLETED"]
     single = one_job_run(tmp_path, *overrides, env=environment)
     assert (artefact(outputs) / "returns.parquet").read_bytes() == (single / "returns.parquet").read_bytes()
+
+
+def test_a_job_past_its_last_requeue_is_one_line_and_keeps_its_saved_chunks(environment, tmp_path):
+    slow = {**environment, "SLOW_DRIFT_STEP_SECONDS": "0.05"}
+    outputs, sweep = tmp_path / "out", tmp_path / "sweep"
+    done = run(RWG, "-m", *LAUNCHER, "hydra.launcher.timeout_min=1", "hydra.launcher.signal_delay_s=5",
+               "hydra.launcher.max_num_timeout=0", *SLOW, "rwg.policies=30", "rwg.episodes=4",
+               f"paths.outputs={outputs}", f"hydra.sweep.dir={sweep}", env=slow, cwd=tmp_path, timeout=600)
+    assert done.returncode == 1, done.stderr[-3000:]
+    [job] = array_tasks(sweep)
+    [error] = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert "the job reached its time limit and was not requeued" in error and "raised in" not in error
+    assert f"[job {job} on " in error and "rerun the same command to resume" in error
+    [scratch] = (outputs / "cache" / "rwg").glob(".partial-*")
+    [record] = [json.loads(p.read_text()) for p in scratch.glob("job-*.json")]
+    assert record["job"] == job and record["units"] == len(list(scratch.glob("chunk-*.npz"))) >= 1
+
+
+def test_two_studies_sent_at_once_share_the_cache_and_their_methods_name_the_jobs(environment, tmp_path):
+    # study=ablation's `default` variant is seven_tasks' one_link_1m65-dense: at experiment=smoke both studies need
+    # the same RWG key. Sent at once, one job computes it and the other waits for it and reads it.
+    outputs = tmp_path / "out"
+    studies = ("seven_tasks", "ablation")
+    running = [start(STUDY, "-m", *LAUNCHER, "experiment=smoke", f"study={study}", f"paths.outputs={outputs}",
+                     f"hydra.sweep.dir={tmp_path / study}", env=environment, cwd=tmp_path) for study in studies]
+    for study, process in zip(studies, running, strict=True):
+        _, stderr = process.communicate(timeout=600)
+        assert process.returncode == 0, f"{study}: {stderr[-3000:]}"
+    jobs = {study: array_tasks(tmp_path / study) for study in studies}
+    assert all(len(ids) == 1 for ids in jobs.values())
+    rwg = outputs / "cache" / "rwg"
+    assert not list(rwg.glob(".partial-*")) and not list(rwg.glob(".tmp-*"))
+    shared = [p for p in rwg.glob("[!.]*") if "one_link_1m65-dense mlp32x32 normal" in
+              json.loads((p / "manifest.json").read_text())["label"]]
+    assert len(shared) == 1
+    [record] = json.loads((shared[0] / "manifest.json").read_text())["jobs"]
+    assert record["job"] in (jobs["seven_tasks"][0], jobs["ablation"][0]) and record["units"] == 10
+    for study in studies:
+        [report] = (tmp_path / study).glob("**/report.md")
+        [where] = [line for line in report.read_text().splitlines() if line.startswith("- **Where the RWG ran**")]
+        assert f"1 SLURM job ({record['job']})" in where   # the shared task, computed by one job
+        assert re.search(rf"1 SLURM job \({jobs[study][0]}\) on {os.uname().nodename}", where)
+
+
+def printed(start: str) -> str:
+    """The shell block of the scale-out tutorial (``docs/tutorials/scale-out.md``) that starts with ``start``."""
+    found = [b for b in re.findall(r"```bash\n(.*?)```", PAGE.read_text(encoding="utf-8"), re.S) if b.startswith(start)]
+    assert len(found) == 1, f"scale-out.md has {len(found)} blocks starting with {start!r}"
+    return found[0]
+
+
+def test_sac_runs_sent_as_jobs_are_read_back_by_the_study(environment, tmp_path):
+    # The scale-out tutorial's two blocks as printed: make paper-jobs on the local cluster, then the study with the
+    # same SAC settings, which trains nothing and finds every run in the cache.
+    outputs = tmp_path / "out"
+    env = {**environment, "TASKCOMPLEXITY_OUTPUTS": str(outputs)}
+    for start in ("make paper-jobs EXPERIMENT=smoke", ".venv/bin/python pipelines/study.py experiment=smoke"):
+        done = subprocess.run(["bash", "-euo", "pipefail", "-c", printed(start)], cwd=ROOT, env=env,
+                              capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, f"{start}: {done.stderr[-3000:]}"
+    sweep = next((outputs / "runs" / "multirun").glob("*/*"))
+    assert len(array_tasks(sweep)) == 7   # one job per study task
+    log = next((outputs / "runs").glob("*/*/study.log")).read_text()
+    assert "all 10 runs in the cache" in log

@@ -27,10 +27,11 @@ from collections.abc import Sequence
 
 from hydra.core.utils import JobReturn, JobStatus
 
-from taskcomplexity.cli import EXIT_BAD_INPUT, EXIT_DISK_FULL, last_error
+from taskcomplexity.cli import EXIT_BAD_INPUT, EXIT_DISK_FULL, EXIT_OUT_OF_TIME, OutOfTime, last_error
 
-RESULT_STATUSES = (EXIT_BAD_INPUT, EXIT_DISK_FULL)
-"""Exit statuses of a job that come back as its result: the entry point's one-line input and disk-full errors."""
+RESULT_STATUSES = (EXIT_BAD_INPUT, EXIT_DISK_FULL, EXIT_OUT_OF_TIME)
+"""Exit statuses of a job that come back as its result: the entry point's one-line input and disk-full errors, and
+its last time limit."""
 
 
 class JobFailed(Exception):
@@ -65,6 +66,33 @@ def _unfinished(error: Exception) -> str:
     log = f"{job.group(2)}_log.err"
     return (f"job {job.group(1)} ended without a result (state: {state.group(1) if state else 'unknown'}; log: "
             f"{log}); the work it saved is kept: rerun the same command to resume (the sweep's other jobs go on)")
+
+
+def out_of_time_unwinds() -> None:
+    """Make the job's last time limit unwind the stack as :class:`~taskcomplexity.cli.OutOfTime`.
+
+    SLURM signals the job before its limit; submitit's handler requeues it, or, with no requeue left, raises its
+    ``UncompletedJobError`` from the handler, that is from wherever the job is: inside an env's ``step`` the
+    gym backend would report it as the env's own error. Wrapped, the handler raises ``OutOfTime`` instead (a
+    BaseException, as Ctrl-C), which the entry point turns into one line (exit 124).
+    """
+    import signal
+
+    from submitit.core.utils import UncompletedJobError
+    from submitit.slurm.slurm import SlurmJobEnvironment
+
+    number = getattr(signal, f"SIG{SlurmJobEnvironment.USR_SIG}")
+    submitits = signal.getsignal(number)
+    if not callable(submitits):
+        return
+
+    def handler(signum, frame) -> None:
+        try:
+            submitits(signum, frame)
+        except UncompletedJobError as error:
+            raise OutOfTime(f"the job reached its time limit and was not requeued ({error})") from None
+
+    signal.signal(number, handler)
 
 
 def job_result(exit: SystemExit, overrides: list[str]) -> JobReturn:

@@ -16,9 +16,12 @@ between policies, so the pilots' policies stand for the N (the table gives their
 limit T). Nothing is cached: the pilots' returns are thrown away; the RWG stage's own cache is not read either (a
 cached task costs nothing to rerun).
 
-The wall time assumes every usable core of this machine busy; with ``rwg.shards=K`` each shard is a 1/K share,
-compared with the cluster launcher's time limit (``hydra.launcher.timeout_min``, on ``cpus_per_task`` cores) when
-``hydra/launcher=cluster`` is given.
+The wall time assumes every usable core of this machine busy. Sent as jobs (``rwg.shards=K`` > 1, or with
+``hydra/launcher=cluster``), every task is K jobs of a 1/K share each, and each job also starts a fresh process
+(interpreter, imports, the task's environment and checks) before its first episode: that start-up is measured by
+starting one such process per backend of the study (:func:`job_start_cpu`: ``pipelines/rwg.py rwg.entry=<id>`` at
+N = M = 2) and added once per job. The longest job is compared with the cluster launcher's time limit
+(``hydra.launcher.timeout_min``, on ``cpus_per_task`` cores) when ``hydra/launcher=cluster`` is given.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from omegaconf import DictConfig
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
 from taskcomplexity.cores import usable_cores
+from taskcomplexity.report.format import plural
 
 log = logging.getLogger("cost")
 
@@ -83,6 +87,33 @@ class TaskCost:
     @property
     def cpu_seconds(self) -> float:
         return self.policies * self.episodes * self.episode_cpu + self.chunks * self.chunk_cpu
+
+    def job_cpu_seconds(self, shards: int, start: float) -> float:
+        """CPU-s of the task sent as ``shards`` jobs, each starting a fresh process that costs ``start`` CPU-s."""
+        return self.cpu_seconds + shards * start
+
+
+def job_start_cpu(entry_id: str, typed: list[str]) -> float:
+    """CPU-s a job of study task ``entry_id`` spends in a fresh process: ``pipelines/rwg.py rwg.entry=<id>`` with the
+    typed overrides ``typed`` (the budget's and the sharding's left out) at N = M = 2, into a temporary cache; its
+    two policies' four episodes are a negligible part."""
+    import subprocess
+    import sys
+    import tempfile
+
+    left_out = ("rwg.policies", "rwg.episodes", "rwg.shards", "rwg.shard", "study.policies", "study.episodes",
+                "paths.outputs", "paths.cache", "force")
+    kept = [o for o in typed if o.partition("=")[0].lstrip("+~") not in left_out]
+    with tempfile.TemporaryDirectory(prefix="taskcomplexity-job-start-") as outputs:
+        command = [sys.executable, "-m", "taskcomplexity.commands.rwg", *kept, f"rwg.entry={entry_id}",
+                   "rwg.policies=2", "rwg.episodes=2", f"paths.outputs={outputs}", "hydra.run.dir=" + outputs]
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        done = subprocess.run(command, capture_output=True, text=True)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        lines = done.stderr.strip().splitlines()
+        raise RuntimeError(f"starting a job of {entry_id} failed: {lines[-1] if lines else done.returncode}")
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def pilot_sizes(request) -> tuple[tuple[int, int], tuple[int, int]]:
@@ -169,16 +200,38 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
          "(every core busy)")
     limit = _launcher_limit(cfg)
     if shards > 1 or limit is not None:
-        share = total / shards
-        line = f"with rwg.shards={shards}: {_hours(share)} of CPU per shard"
-        if limit is not None:
-            seconds, job_cores = limit
-            wall = share / job_cores
-            needed = math.ceil(total / (job_cores * seconds))
-            line += (f", {_hours(wall)} on a job's {job_cores} cores against the launcher's limit of {_hours(seconds)}"
-                     + (": within it" if wall <= seconds else f": beyond it, use rwg.shards >= {needed}"))
-        echo(line)
+        echo_jobs(costs, entries, shards, limit, echo)
     return costs
+
+
+def echo_jobs(costs: list[TaskCost], entries, shards: int, limit: tuple[float, int] | None, echo) -> dict[str, float]:
+    """Print what the run costs sent as jobs (every task in ``shards`` jobs, each starting a fresh process) and how the
+    longest job stands against the launcher's ``limit``; return the start-up CPU-s measured per backend."""
+    from taskcomplexity.cli import user_overrides
+
+    starts: dict[str, float] = {}
+    for (entry, request), cost in zip(entries, costs, strict=True):
+        if cost.backend not in starts:
+            starts[cost.backend] = job_start_cpu(entry.id, user_overrides())
+            log.info("a job of %s on %s starts in %.1f CPU-s", entry.id, cost.backend, starts[cost.backend])
+    jobs = len(costs) * shards
+    in_jobs = sum(c.job_cpu_seconds(shards, starts[c.backend]) for c in costs)
+    measured = ", ".join(f"{cpu:.1f} CPU-s on {backend}" for backend, cpu in starts.items())
+    echo(f"as jobs: {len(costs)} tasks × rwg.shards={shards} = {jobs} jobs, each starting a fresh process ({measured}, "
+         f"measured by starting one): {in_jobs / 3600:.2f} CPU-hours in all")
+    longest = max(costs, key=lambda c: c.cpu_seconds / shards + starts[c.backend])
+    share = longest.cpu_seconds / shards + starts[longest.backend]
+    line = f"the longest job: a shard of {longest.task}, {_hours(share)} of CPU"
+    if limit is not None:
+        seconds, job_cores = limit
+        wall = share / job_cores
+        needed = math.ceil(longest.cpu_seconds / (job_cores * seconds - starts[longest.backend])) \
+            if job_cores * seconds > starts[longest.backend] else None
+        advice = f"use rwg.shards >= {needed}" if needed else "raise hydra.launcher.timeout_min"
+        line += (f", {_hours(wall)} on a job's {plural(job_cores, 'core')} against the launcher's limit of "
+                 f"{_hours(seconds)}" + (": within it" if wall <= seconds else f": beyond it, {advice}"))
+    echo(line)
+    return starts
 
 
 @one_line_errors

@@ -2,6 +2,13 @@
 
     python pipelines/rwg.py arm=two_link reward=sparse rwg.policies=1000 rwg.episodes=100
     python pipelines/rwg.py -m arm=one_link_1m0,one_link_1m65,two_link reward=dense,sparse experiment=smoke
+
+``rwg.entry=<study task id>`` runs that task of the selected study (``study=…``) as the study composes it, at the
+study's N and M, into the key the study looks up. A multirun over the ids and shards sends a study's RWG out as jobs
+(``make atlas-cluster``); the study then reads every artefact from the cache::
+
+    python pipelines/rwg.py -m hydra/launcher=cluster hydra.launcher.partition=<yours> experiment=atlas \
+        rwg.entry=cartpole,pendulum rwg.shards=4 'rwg.shard=range(4)'
 """
 
 from __future__ import annotations
@@ -13,20 +20,33 @@ from omegaconf import DictConfig
 from taskcomplexity.cli import one_line_errors, refuse_unread_groups, user_overrides
 from taskcomplexity.commands import entry_point
 from taskcomplexity.stages.declared import STAGES
-from taskcomplexity.stages.rwg_stage import STAGE, run_rwg_stage
-from taskcomplexity.study.plan import cache_from_config, rwg_request_from_config
+from taskcomplexity.errors import ConfigError
+from taskcomplexity.stages.rwg_stage import STAGE, RWGRequest, run_rwg_stage
+from taskcomplexity.study.plan import cache_from_config, rwg_request_from_config, study_requests
 
 log = logging.getLogger("rwg")
 
-UNREAD = (*(stage.group for stage in STAGES if stage.group not in (None, STAGE)), "study", "report")
-"""The config nodes the RWG stage of one task does not read: every other stage's group, the study, the report."""
+UNREAD = (*(stage.group for stage in STAGES if stage.group not in (None, STAGE)), "report")
+"""The config nodes the RWG stage of one task does not read: every other stage's group, the report (and the study,
+unless ``rwg.entry`` names one of its tasks)."""
+
+
+def entry_request(cfg: DictConfig, task_id: str) -> RWGRequest:
+    """The RWG request the study of ``cfg`` makes for its task ``task_id`` (this job's shard of it)."""
+    requests = dict((entry.id, request) for entry, request in study_requests(cfg))
+    if task_id not in requests:
+        raise ConfigError(f"rwg.entry={task_id} is not a task of study {cfg.study.name} "
+                          f"(allowed: {', '.join(requests)})")
+    return requests[task_id]
 
 
 @one_line_errors
 def run(cfg: DictConfig):
-    """Compute or reuse the returns artefact of the composed task and sampler."""
-    refuse_unread_groups(user_overrides(), UNREAD, "the RWG stage of one task", "pipelines/study.py")
-    request = rwg_request_from_config(cfg)
+    """Compute or reuse the returns artefact of the composed task and sampler (or of the study task ``rwg.entry``)."""
+    entry = cfg.rwg.get("entry")
+    unread = UNREAD if entry is not None else (*UNREAD, "study")
+    refuse_unread_groups(user_overrides(), unread, "the RWG stage of one task", "pipelines/study.py")
+    request = entry_request(cfg, str(entry)) if entry is not None else rwg_request_from_config(cfg)
     cache = cache_from_config(cfg)
     artefact, hit = run_rwg_stage(
         cache, request, force=bool(cfg.force), progress=True, compute_missing=request.settings.shards == 1

@@ -48,6 +48,10 @@ class RWGSettings:
         float64). ``float32`` runs it about 1.5× faster, and the returns move by the rounding of the actions
         (:func:`taskcomplexity.tasks.rollout_kernel.rollout`); it has its own keys. The obstacle task keeps
         float64 (its contacts are chaotic: :class:`taskcomplexity.stages.rwg_stage.RWGRequest`).
+    entry : str or None
+        A study task's id: ``pipelines/rwg.py`` runs that task of the selected study as the study composes it (its
+        key is the one the study looks up); a sweep over the ids sends a study's RWG out as jobs. None: the task
+        the config composes.
     """
 
     policies: int = 1000
@@ -61,6 +65,7 @@ class RWGSettings:
     contacts: str = "pybullet"
     common_initial_states: bool = False
     precision: str = "float64"
+    entry: str | None = setting(None, result=False)
 
     def validate(self) -> None:
         if self.policies < 2:
@@ -79,6 +84,8 @@ class RWGSettings:
             raise ConfigError(f"rwg.contacts must be one of {list(CONTACTS)}, got {self.contacts!r}")
         if self.precision not in PRECISIONS:
             raise ConfigError(f"rwg.precision must be one of {list(PRECISIONS)}, got {self.precision!r}")
+        if self.entry is not None and (not isinstance(self.entry, str) or not self.entry):
+            raise ConfigError(f"rwg.entry must be a study task's id or null, got {self.entry!r}")
         if not 1 <= self.shards <= self.policies:
             raise ConfigError(f"rwg.shards must be in [1, rwg.policies={self.policies}], got {self.shards}")
         if not 0 <= self.shard < self.shards:
