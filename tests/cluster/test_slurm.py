@@ -15,6 +15,7 @@ Each test waits on real jobs; ``make test-cluster`` runs them (CI too, between `
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import re
@@ -24,6 +25,11 @@ import time
 from pathlib import Path
 
 import pytest
+
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings
+from taskcomplexity.stages.rwg_stage import RWGRequest
+from taskcomplexity.tasks.spec import make_task
 
 pytestmark = pytest.mark.cluster
 
@@ -94,7 +100,8 @@ def array_tasks(sweep: Path) -> list[str]:
     """The job ids submitit made folders for under the sweep directory: ``<array>_<task>`` for the tasks of an
     array, a plain job id for a sweep of one job (submitit sends it as a job of its own)."""
     found = [p.name for p in (sweep / ".submitit").glob("[0-9]*") if p.is_dir()]
-    return sorted(found, key=lambda job: tuple(int(part) for part in job.split("_")))
+    tasks = [job for job in found if "_" in job]   # an array's own folder beside its tasks' is no job of the sweep
+    return sorted(tasks or found, key=lambda job: tuple(int(part) for part in job.split("_")))
 
 
 def one_job_run(tmp_path: Path, *overrides: str, env: dict) -> Path:
@@ -198,7 +205,7 @@ def test_a_job_at_its_time_limit_is_requeued_and_resumes_from_its_saved_chunks(e
     assert len(records) >= 2 and {r["job"] for r in records} == {job}
     restarts = [r["restarts"] for r in records]   # one record per attempt that saved a chunk
     assert restarts == sorted(set(restarts)) and restarts[-1] >= 1 and records[0]["reused"] == 0
-    assert all(later["reused"] == earlier["reused"] + earlier["units"] for earlier, later in zip(records, records[1:]))
+    assert all(later["reused"] == earlier["reused"] + earlier["units"] for earlier, later in itertools.pairwise(records))
     assert sum(r["units"] for r in records) == 12   # every policy computed once over the attempts
     attempts = [r["State"] for r in sacct(job, environment, attempts=True) if r["JobID"] == job]
     assert attempts == ["REQUEUED"] * restarts[-1] + ["COMPLETED"]
@@ -236,10 +243,9 @@ def test_two_studies_sent_at_once_share_the_cache_and_their_methods_name_the_job
     assert all(len(ids) == 1 for ids in jobs.values())
     rwg = outputs / "cache" / "rwg"
     assert not list(rwg.glob(".partial-*")) and not list(rwg.glob(".tmp-*"))
-    shared = [p for p in rwg.glob("[!.]*") if "one_link_1m65-dense mlp32x32 normal" in
-              json.loads((p / "manifest.json").read_text())["label"]]
-    assert len(shared) == 1
-    [record] = json.loads((shared[0] / "manifest.json").read_text())["jobs"]
+    shared = RWGRequest(make_task("one_link_1m65", "dense"), NetworkSpec(), PriorSpec(),
+                        RWGSettings(policies=10, episodes=4)).key   # experiment=smoke's N and M
+    [record] = json.loads((rwg / shared / "manifest.json").read_text())["jobs"]
     assert record["job"] in (jobs["seven_tasks"][0], jobs["ablation"][0]) and record["units"] == 10
     for study in studies:
         [report] = (tmp_path / study).glob("**/report.md")

@@ -40,11 +40,22 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 # torchrl logs through a colour console handler of its own, set up at its import from this variable:
 # its INFO lines (buffers, collectors) are not for the console; its warnings still are.
 os.environ.setdefault("RL_LOGGING_LEVEL", "WARNING")
-# Inside a SLURM job, numba's, OpenMP's and the BLAS's thread pools default to the job's cores, not the node's: a
-# cluster that does not bind jobs to cores shows each job the whole node.
+# Inside a SLURM job, OpenMP's and the BLAS's thread pools default to the job's cores, not the node's: a cluster that
+# does not bind jobs to cores shows each job the whole node. (numba's: :func:`job_threads`, at run time, since numba
+# refuses a NUMBA_NUM_THREADS that differs from the one its pool started with.)
 if os.environ.get("SLURM_CPUS_PER_TASK", "").isdigit():
-    for _variable in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(_variable, os.environ["SLURM_CPUS_PER_TASK"])
+
+
+def job_threads() -> None:
+    """Inside a SLURM job, run numba's parallel regions on the job's cores (``numba.set_num_threads``), not the
+    node's; elsewhere leave numba as it is."""
+    cores = os.environ.get("SLURM_CPUS_PER_TASK", "")
+    if cores.isdigit() and int(cores) > 0:
+        import numba
+
+        numba.set_num_threads(min(int(cores), numba.config.NUMBA_NUM_THREADS))
 
 
 def entry_point(run):
@@ -66,6 +77,7 @@ def entry_point(run):
     @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
     @functools.wraps(run)
     def app(cfg) -> None:
+        job_threads()
         with announce_compilation():
             run(cfg)
 

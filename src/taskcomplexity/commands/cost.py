@@ -210,7 +210,7 @@ def echo_jobs(costs: list[TaskCost], entries, shards: int, limit: tuple[float, i
     from taskcomplexity.cli import user_overrides
 
     starts: dict[str, float] = {}
-    for (entry, request), cost in zip(entries, costs, strict=True):
+    for (entry, _), cost in zip(entries, costs, strict=True):
         if cost.backend not in starts:
             starts[cost.backend] = job_start_cpu(entry.id, user_overrides())
             log.info("a job of %s on %s starts in %.1f CPU-s", entry.id, cost.backend, starts[cost.backend])

@@ -19,8 +19,8 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors, refuse_unread_groups, user_overrides
 from taskcomplexity.commands import entry_point
-from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.stages.rwg_stage import STAGE, RWGRequest, run_rwg_stage
 from taskcomplexity.study.plan import cache_from_config, rwg_request_from_config, study_requests
 

@@ -98,8 +98,8 @@ def read_plan(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyPlan:
     settings = {stage.name: stage.settings_from(config[stage.group], study) for stage in STAGES
                 if stage.group is not None}
     if settings[RWG].entry is not None:
-        raise ConfigError(f"rwg.entry={settings[RWG].entry} is read by pipelines/rwg.py (one study task's RWG, a job of "
-                          "a sweep over the ids); a study runs every task of its own")
+        raise ConfigError(f"rwg.entry={settings[RWG].entry} is read by pipelines/rwg.py (one study task's RWG, a job "
+                          "of a sweep over the ids); a study runs every task of its own")
     entries, requests = zip(*entry_requests(study, settings[RWG], config, typed), strict=True)
     settings[RWG] = requests[0].settings  # at the study's N and M
     for stage in STAGES:  # every stage's settings against the study's tasks, before any work
