@@ -143,6 +143,20 @@ def test_the_page_opens_with_the_verdict_then_the_methods(report):
     assert "SAC curves were not computed" not in text
 
 
+def test_the_methods_say_where_the_returns_were_computed(report, study):
+    # Computed in this test process (no scheduler): one process, every task, and the CPU its records hold.
+    import os
+    import socket
+
+    text = " ".join(parse(report).text)
+    records = [r for result in study[1]["results"] for r in result.rwg.manifest["jobs"]]
+    assert {(r["scheduler"], r["job"], r["node"]) for r in records} == {("local", f"pid {os.getpid()}",
+                                                                         socket.gethostname())}
+    cpu = sum(r["cpu_seconds"] for r in records)
+    assert (f"Where the RWG ran 1 process (pid {os.getpid()}) on {socket.gethostname()} (every task); {cpu:,.1f} "
+            "CPU-s of RWG in all, as the jobs recorded it") in text
+
+
 def test_at_smoke_size_the_headline_opens_with_what_pic_measures(report, study):
     # N = 20, M = 8 at B = 1000: nearly every return has its own bin, so PIC is what shuffled returns give.
     verdict = pd.read_parquet(study[1]["verdict"].file("verdict.parquet"))

@@ -52,12 +52,11 @@ def _span(jobs: list[str]) -> str:
     return ", ".join(jobs)
 
 
-def where_it_ran(records: list[dict]) -> str:
-    """One task's RWG jobs in words: ``3 SLURM jobs (12_0–12_2) on vm; 1 attempt resumed saved work: 14.2 CPU-s
-    in all, the longest part 6.1 s of wall time``.
+def jobs_text(records: list[dict]) -> str:
+    """One task's RWG jobs in words: ``3 SLURM jobs (12_0–12_2) on vm, 1 attempt resumed saved work``.
 
     ``records`` are the manifest's ``jobs`` (:class:`taskcomplexity.jobs.JobRecord`): one per process that computed a
-    part (a requeued or rerun job has one per attempt); wall time is the longest part's."""
+    part (a requeued or rerun job has one per attempt)."""
     if not records:
         return "not recorded"
     parts = []
@@ -67,12 +66,23 @@ def where_it_ran(records: list[dict]) -> str:
         nodes = ", ".join(dict.fromkeys(r["node"] for r in mine))
         what = (f"{plural(len(jobs), 'SLURM job')} ({_span(jobs)})" if scheduler == "slurm"
                 else f"{plural(len(jobs), 'process', 'processes')} ({', '.join(jobs)})")
-        again = [r for r in mine if r.get("restarts", 0) or r.get("reused", 0)]
-        resumed = f"; {plural(len(again), 'attempt')} resumed saved work" if again else ""
-        parts.append(f"{what} on {nodes}{resumed}")
-    cpu = sum(r.get("cpu_seconds", 0.0) for r in records)
-    wall = max(r.get("wall_seconds", 0.0) for r in records)
-    return f"{'; '.join(parts)}: {cpu:,.1f} CPU-s in all, the longest part {wall:,.1f} s of wall time"
+        again = [r for r in mine if r.get("reused", 0)]
+        parts.append(f"{what} on {nodes}" + (f", {plural(len(again), 'attempt')} resumed saved work" if again else ""))
+    return "; ".join(parts)
+
+
+def where_it_ran(data: StudyData) -> str:
+    """The methods box's line on where each task's returns were computed: tasks computed by the same jobs together,
+    and the CPU the jobs recorded for their parts."""
+    groups: dict[str, list[str]] = {}
+    cpu = 0.0
+    for task in data.tasks:
+        records = data.results[task].rwg.manifest.get("jobs", [])
+        groups.setdefault(jobs_text(records), []).append(data.name(task))
+        cpu += sum(r.get("cpu_seconds", 0.0) for r in records)
+    named = [f"{what} ({'every task' if len(groups) == 1 and len(names) > 1 else '; '.join(names)})"
+             for what, names in groups.items()]
+    return "; ".join(named) + f"; {cpu:,.1f} CPU-s of RWG in all, as the jobs recorded it"
 
 
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
@@ -125,8 +135,7 @@ def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -
     for task in data.tasks:
         for artefact in (data.results[task].rwg, data.results[task].metrics):
             versions.update(artefact.manifest.get("versions", {}))
-    items.append(("Where the RWG ran", "; ".join(
-        f"{data.name(t)}: {where_it_ran(data.results[t].rwg.manifest.get('jobs', []))}" for t in data.tasks)))
+    items.append(("Where the RWG ran", where_it_ran(data)))
     items.append(("Software", ", ".join(f"{k} {v}" for k, v in sorted(versions.items()))))
     items.append(("Metrics artefacts", ", ".join(f"{data.name(t)}: {data.results[t].metrics.key}" for t in data.tasks)))
     items.append(("Verdict artefact", data.verdict_key))
