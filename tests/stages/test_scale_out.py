@@ -193,6 +193,11 @@ def seeded_outputs(tmp_path_factory):
         (RWG, "arm.links.0.length=-0.5", "error: arm.links[0].length must be a finite number > 0, got -0.5"),
         (RWG, "arm.torque_scale=[-30.0]", "error: arm.torque_scale[0] must be a finite number > 0, got -30.0"),
         (RWG, "rwg.shard=5", "error: rwg.shard must be in [0, 0] (rwg.shards=1), got 5"),
+        (RWG, "rwg.entry=nosuch", "error: rwg.entry=nosuch is not a task of study seven_tasks (allowed: "
+                                  "one_link_1m0-dense, one_link_1m65-dense, two_link-dense, two_link_obstacle-dense, "
+                                  "one_link_1m0-sparse, one_link_1m65-sparse, two_link-sparse)"),
+        (METRICS, "rwg.entry=two_link-sparse", "error: rwg.entry=two_link-sparse is read by pipelines/rwg.py only (one "
+                                               "study task's RWG, a job of a sweep over the ids)"),
         (METRICS, "metrics.bins=1", "error: metrics.bins must be an integer >= 2 (B) or auto (N·M / 50, or the study's pinned B at its "
                                           "published N and M), got 1"),
         (METRICS, "metrics.temperature_range=[2.0,1.0]", "error: metrics.temperature_range must be [low, high] with 0 < low < high, got [2.0, 1.0]"),

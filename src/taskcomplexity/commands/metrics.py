@@ -24,6 +24,7 @@ from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
 from taskcomplexity.study.plan import (
     cache_from_config,
     metrics_settings_from_config,
+    refuse_entry,
     run_name,
     rwg_request_from_config,
     study_requests,
@@ -35,6 +36,7 @@ log = logging.getLogger("metrics")
 
 @one_line_errors
 def run(cfg: DictConfig):
+    refuse_entry(cfg)
     scope = cfg.metrics.get("scope", "study")
     if scope not in ("study", "task"):
         raise ConfigError(f"metrics.scope must be one of ['study', 'task'], got {scope!r}")

@@ -161,10 +161,20 @@ def rwg_request_from_config(cfg: Any, task=None) -> RWGRequest:
 
     if str(cfg.backend) not in (AUTO, *BACKENDS):
         raise ConfigError(f"backend must be one of {[AUTO, *BACKENDS]}, got {cfg.backend!r}")
+    settings = build(RWGSettings, cfg.rwg, "rwg")
+    refuse_entry(cfg)
     if task is None:
         task = task_from_config(cfg)
         refuse_unread_overrides(task, user_overrides())
-    return request_of(cfg, build(RWGSettings, cfg.rwg, "rwg"), task)
+    return request_of(cfg, settings, task)
+
+
+def refuse_entry(cfg: Any) -> None:
+    """Refuse ``rwg.entry`` in a command other than ``pipelines/rwg.py`` (which reads it before anything else)."""
+    entry = cfg.rwg.get("entry")
+    if entry is not None:
+        raise ConfigError(f"rwg.entry={entry} is read by pipelines/rwg.py only (one study task's RWG, a job of a "
+                          "sweep over the ids)")
 
 
 REACHING_ONLY = ("arm", "reward", "max_steps", "rwg.contacts")
