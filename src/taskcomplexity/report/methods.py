@@ -52,37 +52,32 @@ def _span(jobs: list[str]) -> str:
     return ", ".join(jobs)
 
 
-def jobs_text(records: list[dict]) -> str:
-    """One task's RWG jobs in words: ``3 SLURM jobs (12_0–12_2) on vm, 1 attempt resumed saved work``.
-
-    ``records`` are the manifest's ``jobs`` (:class:`taskcomplexity.jobs.JobRecord`): one per process that computed a
-    part (a requeued or rerun job has one per attempt)."""
-    if not records:
-        return "not recorded"
+def where_it_ran(data: StudyData) -> str:
+    """The methods box's line on where the returns were computed, from the RWG manifests' ``jobs``
+    (:class:`taskcomplexity.jobs.JobRecord`: one per process that computed a part; a requeued or rerun job has one
+    per attempt): per scheduler its jobs, nodes and tasks, how many attempts resumed saved work, and the CPU the
+    jobs recorded for their parts."""
+    records = {task: data.results[task].rwg.manifest.get("jobs", []) for task in data.tasks}
     parts = []
-    for scheduler in dict.fromkeys(r["scheduler"] for r in records):
-        mine = [r for r in records if r["scheduler"] == scheduler]
-        jobs = list(dict.fromkeys(r["job"] for r in mine))
-        nodes = ", ".join(dict.fromkeys(r["node"] for r in mine))
+    for scheduler in dict.fromkeys(r["scheduler"] for rows in records.values() for r in rows):
+        mine = {task: [r for r in rows if r["scheduler"] == scheduler] for task, rows in records.items()}
+        mine = {task: rows for task, rows in mine.items() if rows}
+        jobs = list(dict.fromkeys(r["job"] for rows in mine.values() for r in rows))
+        nodes = ", ".join(dict.fromkeys(r["node"] for rows in mine.values() for r in rows))
+        per_task = {len({r["job"] for r in rows}) for rows in mine.values()}
         what = (f"{plural(len(jobs), 'SLURM job')} ({_span(jobs)})" if scheduler == "slurm"
                 else f"{plural(len(jobs), 'process', 'processes')} ({', '.join(jobs)})")
-        again = [r for r in mine if r.get("reused", 0)]
-        parts.append(f"{what} on {nodes}" + (f", {plural(len(again), 'attempt')} resumed saved work" if again else ""))
-    return "; ".join(parts)
-
-
-def where_it_ran(data: StudyData) -> str:
-    """The methods box's line on where each task's returns were computed: tasks computed by the same jobs together,
-    and the CPU the jobs recorded for their parts."""
-    groups: dict[str, list[str]] = {}
-    cpu = 0.0
-    for task in data.tasks:
-        records = data.results[task].rwg.manifest.get("jobs", [])
-        groups.setdefault(jobs_text(records), []).append(data.name(task))
-        cpu += sum(r.get("cpu_seconds", 0.0) for r in records)
-    named = [f"{what} ({'every task' if len(groups) == 1 and len(names) > 1 else '; '.join(names)})"
-             for what, names in groups.items()]
-    return "; ".join(named) + f"; {cpu:,.1f} CPU-s of RWG in all, as the jobs recorded it"
+        if len(mine) > 1 and len(per_task) == 1 and per_task != {1}:
+            what += f", {per_task.pop()} per task"
+        tasks = "every task" if len(mine) == len(data.tasks) else "; ".join(data.name(t) for t in mine)
+        resumed = sum(1 for rows in mine.values() for r in rows if r.get("reused", 0))
+        parts.append(f"{what} on {nodes} ({tasks})" + (f", {plural(resumed, 'attempt')} resumed saved work"
+                                                      if resumed else ""))
+    unrecorded = [data.name(t) for t, rows in records.items() if not rows]
+    if unrecorded:
+        parts.append(f"not recorded ({'; '.join(unrecorded)})")
+    cpu = sum(r.get("cpu_seconds", 0.0) for rows in records.values() for r in rows)
+    return "; ".join(parts) + f"; {cpu:,.1f} CPU-s of RWG in all, as the jobs recorded it"
 
 
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
