@@ -45,8 +45,8 @@ BUDGETS: list[tuple[str, str, str]] = [
     ("pipelines/study.py experiment=published",
      f"pipelines/study.py experiment=published {TINY} primitives.policies=10 primitives.episodes=4",
      "make run: the published scale takes minutes"),
-    ("-m pytest -q -m \"not slow\" -n auto --dist loadfile",
-     "-m pytest -q -m \"not slow\" -n auto --dist loadfile --collect-only -p no:cacheprovider "
+    ("-m pytest -q -m \"not slow and not cluster\" -n auto --dist loadfile",
+     "-m pytest -q -m \"not slow and not cluster\" -n auto --dist loadfile --collect-only -p no:cacheprovider "
      "tests/test_docs_commands.py",
      "make test: the suite this test belongs to, which CI runs (here it would run this test again); this file "
      "collected with its options"),

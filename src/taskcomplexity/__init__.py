@@ -14,9 +14,11 @@ commands
 config
     From Hydra/OmegaConf configuration to the library's plain dataclasses.
 cores
-    The CPUs this process may run on (how many workers "one per core" is).
+    The CPUs this process may run on (how many workers "one per core" is; within a SLURM job, its allocation).
 errors
     Exceptions the library raises; entry points turn them into one readable line and a non-zero exit.
+jobs
+    Which job computed an artefact (scheduler, job id, node, CPU): the manifests' ``jobs`` records.
 metrics
     The estimators on a return matrix (statistics, PIC, POIC, bootstrap, Welch, diagnostics) and their registry.
 policies

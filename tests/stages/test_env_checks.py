@@ -7,6 +7,7 @@ chunks of the policies done kept. A well-behaved env of the same package still r
 from __future__ import annotations
 
 import importlib
+import json
 import os
 import re
 import subprocess
@@ -282,7 +283,9 @@ def test_saved_chunks_of_the_policies_done_stay_when_the_env_raises_and_an_empty
         run_rwg_stage(cache, request("Boom", chunk_policies=1, workers=1))
     assert isinstance(raised.value.__cause__, ValueError)
     scratch = cache.root / "rwg" / f".partial-{request('Boom').key}"
-    assert sorted(p.name for p in scratch.iterdir()) == [f"chunk-{n:07d}-{n + 1:07d}.npz" for n in range(policy)]
+    assert sorted(p.name for p in scratch.glob("chunk-*")) == [f"chunk-{n:07d}-{n + 1:07d}.npz" for n in range(policy)]
+    [record] = [json.loads(p.read_text()) for p in scratch.glob("job-*.json")]   # the record of what this run saved
+    assert (record["units"], record["reused"], record["part"]) == (policy, 0, "all")
     cache = Cache(tmp_path / "one_chunk")
     with pytest.raises(TaskComplexityError, match="ValueError: boom"):
         run_rwg_stage(cache, request("Boom"))

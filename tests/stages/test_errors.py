@@ -54,7 +54,7 @@ def test_bad_input_is_one_line_and_exit_2_unless_hydra_full_error_asks_for_the_t
 def test_unknown_keys_and_additions_no_stage_reads_are_one_line_exit_2(tmp_path):
     cases = {
         "rwg.polices=10": "error: rwg.polices is not a known key (allowed: chunk_memory_mb, chunk_policies, common_initial_states, "
-                          "contacts, episodes, policies, precision, seed, shard, shards, workers)",
+                          "contacts, entry, episodes, policies, precision, seed, shard, shards, workers)",
         "+foo=1": "error: +foo=1: foo is not a key any stage reads ('+' adds keys only to task.kwargs, "
                   "study.reference, study.algorithm_scores, study.orders; remove it or check its spelling)",
         # a free-form study node accepts new keys, but the RWG stage of one task reads no study

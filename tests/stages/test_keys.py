@@ -150,8 +150,9 @@ def test_the_rwg_key_follows_the_settings_declaration():
         return lambda s: RWGRequest(task, NetworkSpec(), PriorSpec(), s).key
 
     changed = {"policies": 12, "episodes": 7, "seed": 4, "chunk_policies": 3, "chunk_memory_mb": 64, "shard": 1,
-               "shards": 2, "workers": 3, "contacts": "model", "common_initial_states": True, "precision": "float32"}
-    split = {"chunk_policies", "chunk_memory_mb", "shard", "shards", "workers"}
+               "shards": 2, "workers": 3, "contacts": "model", "common_initial_states": True, "precision": "float32",
+               "entry": "two_link-dense"}
+    split = {"chunk_policies", "chunk_memory_mb", "shard", "shards", "workers", "entry"}  # entry: which task, not how
     # the obstacle task's forward pass stays float64 (chaotic contacts): the precision is not in its key
     _one_at_a_time(RWGSettings(), changed, split | {"precision"}, key_of(make_task("two_link_obstacle")))
     # the contact handling cannot change a task without the block: not in its key

@@ -14,6 +14,9 @@ itself sets nothing.
 
 Modules
 -------
+cluster
+    What the SLURM launcher of ``hydra/launcher=cluster`` adds: one ``error:`` line per failed job, the last time
+    limit as one line (the launcher itself is ``hydra_plugins.taskcomplexity_cluster.ClusterLauncher``).
 compilation
     Says when numba compiles a set of kernels and how long it took; compiles them all ahead (``make install``).
 cost
