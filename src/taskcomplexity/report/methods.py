@@ -52,12 +52,11 @@ def _span(jobs: list[str]) -> str:
     return ", ".join(jobs)
 
 
-def where_it_ran(data: StudyData) -> str:
-    """The methods box's line on where the returns were computed, from the RWG manifests' ``jobs``
-    (:class:`taskcomplexity.jobs.JobRecord`: one per process that computed a part; a requeued or rerun job has one
-    per attempt): per scheduler its jobs, nodes and tasks, how many attempts resumed saved work, and the CPU the
-    jobs recorded for their parts."""
-    records = {task: data.results[task].rwg.manifest.get("jobs", []) for task in data.tasks}
+def where_it_ran(data: StudyData, records: dict[str, list[dict]], what: str) -> str:
+    """The methods box's line on where a stage's artefacts were computed, from their manifests' ``jobs``
+    (``records``: study task id → :class:`taskcomplexity.jobs.JobRecord` dicts, one per process that computed a part;
+    a requeued or rerun job has one per attempt): per scheduler its jobs, nodes and tasks, how many attempts resumed
+    saved work, and the CPU the jobs recorded for their parts (``what``: the stage's name in the sentence)."""
     parts = []
     for scheduler in dict.fromkeys(r["scheduler"] for rows in records.values() for r in rows):
         mine = {task: [r for r in rows if r["scheduler"] == scheduler] for task, rows in records.items()}
@@ -69,7 +68,7 @@ def where_it_ran(data: StudyData) -> str:
                 else f"{plural(len(jobs), 'process', 'processes')} ({', '.join(jobs)})")
         if len(mine) > 1 and len(per_task) == 1 and per_task != {1}:
             what += f", {per_task.pop()} per task"
-        tasks = "every task" if len(mine) == len(data.tasks) else "; ".join(data.name(t) for t in mine)
+        tasks = "every task" if len(mine) == len(records) else "; ".join(data.name(t) for t in mine)
         resumed = sum(1 for rows in mine.values() for r in rows if r.get("reused", 0))
         parts.append(f"{what} on {nodes} ({tasks})" + (f", {plural(resumed, 'attempt')} resumed saved work"
                                                       if resumed else ""))
@@ -77,7 +76,7 @@ def where_it_ran(data: StudyData) -> str:
     if unrecorded:
         parts.append(f"not recorded ({'; '.join(unrecorded)})")
     cpu = sum(r.get("cpu_seconds", 0.0) for rows in records.values() for r in rows)
-    return "; ".join(parts) + f"; {cpu:,.1f} CPU-s of RWG in all, as the jobs recorded it"
+    return "; ".join(parts) + f"; {cpu:,.1f} CPU-s of {what} in all, as the jobs recorded it"
 
 
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
@@ -130,7 +129,11 @@ def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -
     for task in data.tasks:
         for artefact in (data.results[task].rwg, data.results[task].metrics):
             versions.update(artefact.manifest.get("versions", {}))
-    items.append(("Where the RWG ran", where_it_ran(data)))
+    items.append(("Where the RWG ran", where_it_ran(
+        data, {task: data.results[task].rwg.manifest.get("jobs", []) for task in data.tasks}, "RWG")))
+    sac_jobs = (sac_curves.attrs.get("sac_jobs") or {}) if sac_curves is not None else {}
+    if sac_jobs:
+        items.append(("Where SAC ran", where_it_ran(data, sac_jobs, "SAC")))
     items.append(("Software", ", ".join(f"{k} {v}" for k, v in sorted(versions.items()))))
     items.append(("Metrics artefacts", ", ".join(f"{data.name(t)}: {data.results[t].metrics.key}" for t in data.tasks)))
     items.append(("Verdict artefact", data.verdict_key))

@@ -12,6 +12,7 @@ task's budget only.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import shutil
 import time
@@ -23,6 +24,7 @@ import pandas as pd
 from taskcomplexity.config import build, result_identity
 from taskcomplexity.cores import usable_cores
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.jobs import JobMeter
 from taskcomplexity.rl.settings import (
     SACSettings,
     backend_identity,
@@ -48,6 +50,8 @@ NUMERICS = Numerics(version=1, modules=(
 ))
 CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
+JOBS_ATTR = "sac_jobs"
+"""``curves.attrs[JOBS_ATTR]``: {study task id: the job records of its runs' artefacts} (:mod:`taskcomplexity.jobs`)."""
 SKIPPED_ATTR = "sac_skipped"
 """``curves.attrs[SKIPPED_ATTR]``: {study task id: reason} of the tasks SAC did not run on."""
 ACTORS_ATTR = "sac_actors"
@@ -104,6 +108,7 @@ def run_sac_stage(
 
     def write(directory) -> dict:
         scratch = cache.scratch(STAGE, key)
+        meter = JobMeter(variant)
         curves, actors = train_sac_run(
             task, settings, checkpoint_dir=scratch, progress=progress, solved_return=solved_return,
             bar_position=bar_position,
@@ -111,7 +116,9 @@ def run_sac_stage(
         curves.to_parquet(directory / CURVES, index=False)
         if actors is not None:
             actors.save(directory / ACTORS_FILE)
-        return {"label": f"{task.task_id} {variant} seeds={list(settings.seeds)}", "variant": variant}
+        meter.units = 1
+        return {"label": f"{task.task_id} {variant} seeds={list(settings.seeds)}", "variant": variant,
+                "jobs": [dataclasses.asdict(meter.record())]}
 
     def cleanup() -> None:
         shutil.rmtree(cache.scratch(STAGE, key), ignore_errors=True)
@@ -275,7 +282,7 @@ def study_sac_curves(
         trained = train_at_once(cache, jobs, workers, force=force, progress=progress)
     from taskcomplexity.rl.snapshots import ACTORS_FILE
 
-    frames, missing, actors = [], list(unbudgeted), {}
+    frames, missing, actors, jobs = [], list(unbudgeted), {}, {}
     for entry, task, budgeted in runs:
         found = []
         for variant in protocol_variants(task, budgeted):
@@ -291,6 +298,7 @@ def study_sac_curves(
             if artefact is None:
                 break
             found.append(pd.read_parquet(artefact.file(CURVES)).assign(task=entry.id))
+            jobs.setdefault(entry.id, []).extend(artefact.manifest.get("jobs", []))
             if variant.variant == "sac" and artefact.path.joinpath(ACTORS_FILE).exists():
                 actors[entry.id] = (artefact.key, str(artefact.path / ACTORS_FILE))
         else:  # every variant of the task (a task's curves are shown whole or not at all)
@@ -301,6 +309,7 @@ def study_sac_curves(
     curves.attrs[SKIPPED_ATTR] = skipped
     curves.attrs[MISSING_ATTR] = missing
     curves.attrs[ACTORS_ATTR] = actors
+    curves.attrs[JOBS_ATTR] = jobs
     return curves
 
 
