@@ -52,11 +52,11 @@ def _span(jobs: list[str]) -> str:
     return ", ".join(jobs)
 
 
-def where_it_ran(data: StudyData, records: dict[str, list[dict]], what: str) -> str:
+def where_it_ran(data: StudyData, records: dict[str, list[dict]], stage: str) -> str:
     """The methods box's line on where a stage's artefacts were computed, from their manifests' ``jobs``
     (``records``: study task id → :class:`taskcomplexity.jobs.JobRecord` dicts, one per process that computed a part;
     a requeued or rerun job has one per attempt): per scheduler its jobs, nodes and tasks, how many attempts resumed
-    saved work, and the CPU the jobs recorded for their parts (``what``: the stage's name in the sentence)."""
+    saved work, and the CPU the jobs recorded for their parts (``stage``: the stage's name in the sentence)."""
     parts = []
     for scheduler in dict.fromkeys(r["scheduler"] for rows in records.values() for r in rows):
         mine = {task: [r for r in rows if r["scheduler"] == scheduler] for task, rows in records.items()}
@@ -76,7 +76,7 @@ def where_it_ran(data: StudyData, records: dict[str, list[dict]], what: str) -> 
     if unrecorded:
         parts.append(f"not recorded ({'; '.join(unrecorded)})")
     cpu = sum(r.get("cpu_seconds", 0.0) for rows in records.values() for r in rows)
-    return "; ".join(parts) + f"; {cpu:,.1f} CPU-s of {what} in all, as the jobs recorded it"
+    return "; ".join(parts) + f"; {cpu:,.1f} CPU-s of {stage} in all, as the jobs recorded it"
 
 
 def methods(data: StudyData, sac_curves: pd.DataFrame | None, *, alpha: float) -> tuple[tuple[str, str], ...]:
