@@ -251,9 +251,10 @@ def test_two_studies_sent_at_once_share_the_cache_and_their_methods_name_the_job
         [report] = (tmp_path / study).glob("**/report.md")
         [where] = [line for line in report.read_text().splitlines() if line.startswith("- **Where the RWG ran**")]
         # this study's own job, and the other's where it computed the shared task
-        ids = sorted({jobs[study][0], record["job"]}, key=int)
-        assert where.startswith(f"- **Where the RWG ran**: {len(ids)} SLURM job{'s' if len(ids) > 1 else ''} "
-                                f"({', '.join(ids)}) on {os.uname().nodename} (every task);")
+        ids = {jobs[study][0], record["job"]}
+        named = re.match(rf"- \*\*Where the RWG ran\*\*: {len(ids)} SLURM jobs? \(([^)]*)\) on "
+                         rf"{os.uname().nodename} \(every task\);", where)
+        assert named and set(named.group(1).split(", ")) == ids, where
 
 
 def printed(start: str) -> str:
