@@ -38,6 +38,7 @@ from omegaconf import DictConfig
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
 from taskcomplexity.cores import usable_cores
+from taskcomplexity.jobs import cpu_seconds
 from taskcomplexity.report.format import plural
 
 log = logging.getLogger("cost")
@@ -49,12 +50,6 @@ BATCHED = ("kernel", "batched")
 costs, so their pilots run the run's M."""
 PILOT_EPISODES = (2, 6)
 """Episodes per policy of the two pilots: the difference prices an episode, the first the chunk's fixed part."""
-
-
-def _cpu_seconds() -> float:
-    """CPU time of this process (every thread) and of its children that ended."""
-    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 @dataclasses.dataclass(frozen=True)
@@ -139,9 +134,9 @@ def price(request, task_id: str | None = None) -> TaskCost:
     for policies, episodes in ((2, 2), *pilot_sizes(request)):
         pilot = dataclasses.replace(settings, policies=policies, episodes=episodes, shard=0, shards=1,
                                     chunk_policies=policies, workers=1)
-        started = _cpu_seconds()
+        started = cpu_seconds()
         chunk = run_rwg(request.task, request.network, request.prior, pilot, request.backend)
-        timed.append((_cpu_seconds() - started, chunk.steps))
+        timed.append((cpu_seconds() - started, chunk.steps))
     (first, short), (second, long) = timed[1:]
     if long.size > short.size:
         episode_cpu = max(second - first, 0.0) / (long.size - short.size)
