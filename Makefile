@@ -8,7 +8,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost manipulation manipulation-cost manipulation-cluster atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -55,6 +55,16 @@ atlas-cost: $(STAMP) ## what make atlas (with ARGS=… its overrides, e.g. Furut
 	$(PY) -m pip install --quiet -e '.[atlas]'
 	$(PY) pipelines/cost.py experiment=atlas $(ARGS)
 
+# Meta-World's tasks need metaworld 3.1.1, which pins mujoco 3.3.0; installing it with the atlas extra lets pip pick
+# the dm-control that runs on that MuJoCo, so make atlas and make manipulation share one consistent virtualenv.
+manipulation: $(STAMP) ## Meta-World's 50 manipulation tasks against their published difficulty groups (about an hour on 2 cores); installs the metaworld extra
+	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+	$(PY) pipelines/study.py experiment=manipulation $(ARGS)
+
+manipulation-cost: $(STAMP) ## what make manipulation (with ARGS=… its overrides, e.g. study.policies=100 study.episodes=10) will cost, from a pilot of each task
+	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+	$(PY) pipelines/cost.py experiment=manipulation $(ARGS)
+
 # Furuta et al.'s own budget on make atlas's 13 tasks, through a SLURM cluster (the local one of make cluster-up by
 # default; PARTITION=<yours> on a real one): priced first (make atlas-cost), then every task's RWG as one job array of
 # ATLAS_SHARDS shards per task, then the study (metrics, verdict, report) as one job that reads them from the cache.
@@ -77,6 +87,17 @@ CLASSIC_PRIORS := normal,uniform,xavier_normal_tanh,xavier_uniform_tanh
 
 # Furuta et al.'s bag of 56 policy families on make atlas's study: the 28 cells above × with and without a bias.
 ATLAS_BAG := network=$(CLASSIC_NETWORKS) prior=$(CLASSIC_PRIORS) network.input_bias=false,true
+
+MANIPULATION_BUDGET ?= study.policies=100 study.episodes=10
+MANIPULATION_SHARDS ?= 4
+
+manipulation-cluster: $(STAMP) ## Meta-World's 50 tasks at the study's own budget (N = 100, M = 10) priced, then sent to SLURM like atlas-cluster (PARTITION=<yours>)
+	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+	$(PY) pipelines/cost.py experiment=manipulation $(MANIPULATION_BUDGET) rwg.shards=$(MANIPULATION_SHARDS) $(ON_CLUSTER) $(ARGS)
+	$(PY) pipelines/rwg.py -m experiment=manipulation $(MANIPULATION_BUDGET) $(ON_CLUSTER) \
+		rwg.entry=$$($(PY) -m taskcomplexity.commands.study_tasks metaworld) \
+		rwg.shards=$(MANIPULATION_SHARDS) 'rwg.shard=range($(MANIPULATION_SHARDS))' $(ARGS)
+	$(PY) pipelines/study.py -m experiment=manipulation $(MANIPULATION_BUDGET) $(ON_CLUSTER) $(ARGS)
 
 atlas-bag: $(STAMP) ## the 56 cells of Furuta et al.'s bag on make atlas's study as a multirun + its sweep report (a cluster job: ARGS='hydra/launcher=cluster …')
 	$(PY) -m pip install --quiet -e '.[atlas]'

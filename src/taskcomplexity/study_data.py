@@ -17,6 +17,8 @@ Example::
     relations:
       - {easier: cart, harder: pend, kind: "swing-up"}
     orders: {}            # optional: name -> list of ids, easiest first (Kendall's tau)
+    groups: null          # optional: {order: [easy, …, hardest], source: "…"}: the entries' `group`s are ordered
+                          # difficulty groups (rank agreement across tasks, and the relations between groups)
     reference: {}         # optional: id -> a reference score (higher = easier; Pearson/Spearman r)
     algorithm_scores: {}  # optional: id -> {max: A_max, average: A_avg} of a learning algorithm
                           # (Score(A) and Score(R) of Furuta et al. 2021, correlated with every metric)
@@ -80,6 +82,28 @@ class StudyTask:
     sac_steps: int | None = None
     solved_return: float | None = None
     selection: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class DifficultyGroups:
+    """Ordered difficulty groups of a study's tasks (e.g. Meta-World's easy, medium, hard, very hard).
+
+    Each task's group is its entry's ``group``; every task has one of :attr:`order`.
+
+    Attributes
+    ----------
+    order : tuple of str
+        The groups, easiest first.
+    source : str
+        Who grouped the tasks (the report cites it).
+    """
+
+    order: tuple[str, ...]
+    source: str
+
+    def rank(self, group: str) -> int:
+        """The group's position, 0 = easiest."""
+        return self.order.index(group)
 
 
 @dataclass(frozen=True)
@@ -188,6 +212,9 @@ class Study:
     published : PublishedScale or None
         The scale of the study's published table, if it has one: ``experiment=published`` runs at it,
         and a report at another scale says that its PIC is not comparable with that table.
+    groups : DifficultyGroups or None
+        Whether the entries' ``group``s are ordered difficulty groups, and their order (None: a ``group`` only
+        groups the tables' rows).
     """
 
     name: str
@@ -202,6 +229,7 @@ class Study:
     policies: int | None = None
     episodes: int | None = None
     published: PublishedScale | None = None
+    groups: DifficultyGroups | None = None
 
     @property
     def ids(self) -> tuple[str, ...]:
@@ -226,6 +254,12 @@ class Study:
         e.g. ``algorithm_scores``), and SAC runs on it only with ``sac.total_steps``."""
         return any(t.sac_steps is not None for t in self.tasks)
 
+    def difficulty(self) -> dict[str, int]:
+        """Each task's difficulty group as its rank (0 = the easiest group), by task id; empty without ``groups``."""
+        if self.groups is None:
+            return {}
+        return {t.id: self.groups.rank(t.group) for t in self.tasks}
+
     def relations_among(self, ids) -> tuple[Relation, ...]:
         """The relations whose two tasks are both in ``ids``, in study order."""
         present = set(ids)
@@ -238,7 +272,7 @@ def study_from_config(node: Any) -> Study:
     if not isinstance(node, Mapping):
         raise ConfigError(f"study must be a mapping (name, tasks, relations, …), got {node!r}")
     allowed = {"name", "tasks", "relations", "orders", "reference", "algorithm_scores", "network", "prior", "kind",
-               "policies", "episodes", "published"}
+               "policies", "episodes", "published", "groups"}
     unknown = sorted(set(node) - allowed)
     if unknown:
         raise ConfigError(f"study.{unknown[0]} is not a known key (allowed: {', '.join(sorted(allowed))})")
@@ -287,7 +321,28 @@ def study_from_config(node: Any) -> Study:
         counts[key] = value
     return Study(name=name, tasks=tasks, relations=relations, orders=orders, reference=reference,
                  algorithm_scores=algorithm_scores, kind=kind, published=_published(node.get("published"), ids),
-                 **family, **counts)
+                 groups=_groups(node.get("groups"), tasks), **family, **counts)
+
+
+def _groups(node: Any, tasks: tuple[StudyTask, ...]) -> DifficultyGroups | None:
+    if node is None:
+        return None
+    if not isinstance(node, Mapping) or set(node) != {"order", "source"}:
+        raise ConfigError(f"study.groups must be {{order: [easiest, …, hardest], source: \"who grouped them\"}}, "
+                          f"got {node!r}")
+    order = node["order"]
+    if (not isinstance(order, list) or len(order) < 2 or len(set(map(str, order))) != len(order)
+            or not all(isinstance(g, str) and g for g in order)):
+        raise ConfigError(f"study.groups.order must be a list of at least 2 distinct group names, easiest first, "
+                          f"got {order!r}")
+    if not isinstance(node["source"], str) or not node["source"]:
+        raise ConfigError(f"study.groups.source must be a non-empty string (who grouped the tasks), "
+                          f"got {node['source']!r}")
+    for i, task in enumerate(tasks):
+        if task.group not in order:
+            raise ConfigError(f"study.tasks[{i}].group={task.group!r} is not one of study.groups.order "
+                              f"(allowed: {', '.join(order)})")
+    return DifficultyGroups(order=tuple(order), source=node["source"])
 
 
 def _algorithm_score(node: Any, task_id: Any, ids: list[str]) -> AlgorithmScore:

@@ -84,14 +84,14 @@ TASK_PRESETS = sorted(p.stem for p in (CONF_DIR / "task").glob("*.yaml") if p.st
 STUDIES = sorted(p.stem for p in (CONF_DIR / "study").glob("*.yaml"))
 
 
-EXTRA = re.compile(r"task\.env_id=\S+ needs (?P<module>MuJoCo|shimmy), which is not installed: "
-                   r"pip install -e '\.\[(?P<extra>mujoco|dmc)\]'")
+EXTRA = re.compile(r"task\.env_id=\S+ needs (?P<module>MuJoCo|shimmy|metaworld), which is not installed: "
+                   r"pip install -e '\.\[(?P<extra>mujoco|dmc|metaworld)\]'")
 
 
 def refused_for_a_missing_extra(err: ConfigError) -> bool:
     """Whether ``err`` is the one line that names the extra a task needs, and that extra's module is missing."""
     found = EXTRA.fullmatch(str(err))
-    return bool(found) and importlib.util.find_spec({"MuJoCo": "mujoco", "shimmy": "shimmy"}[found["module"]]) is None
+    return bool(found) and importlib.util.find_spec({"MuJoCo": "mujoco", "shimmy": "shimmy", "metaworld": "metaworld"}[found["module"]]) is None
 
 
 @pytest.mark.parametrize("preset", TASK_PRESETS)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from taskcomplexity.policies.families import FamilySpec
-from taskcomplexity.rwg.gym_backend import ENVIRONMENTS_IN_FLIGHT
+from taskcomplexity.rwg.gym_backend import environments_in_flight
 from taskcomplexity.rwg.settings import RWGSettings
 from taskcomplexity.tasks.base import Task
 
@@ -70,7 +70,8 @@ def chunk_size(task: Task, network: FamilySpec, settings: RWGSettings, backend: 
 
         return POLICIES_PER_POOL
     if backend in ("gym", "vector"):
-        return max(1, ENVIRONMENTS_IN_FLIGHT // min(settings.episodes, ENVIRONMENTS_IN_FLIGHT))
+        in_flight = environments_in_flight(task)
+        return max(1, in_flight // min(settings.episodes, in_flight))
     per_env = 8 * network.working_floats(task.observation_size, task.action_size, task.max_steps)  # float64
     envs = settings.chunk_memory_mb * 2**20 // per_env
     return max(1, min(envs // settings.episodes, 2048))

@@ -28,6 +28,13 @@ ENVIRONMENTS_IN_FLIGHT = 256
 """Default number of environments stepped together (the pool's size)."""
 
 
+def environments_in_flight(task: Task) -> int:
+    """The pool's size for ``task``: the env class's ``environments_in_flight`` when it declares one (an env that is
+    slow to build and to step gains nothing from a wider forward pass, e.g. Meta-World's), else
+    :data:`ENVIRONMENTS_IN_FLIGHT`. Only the speed depends on it, never the returns."""
+    return int(getattr(task, "environments_in_flight", None) or ENVIRONMENTS_IN_FLIGHT)
+
+
 def slots_per_policy(policies: int, episodes: int, in_flight: int = ENVIRONMENTS_IN_FLIGHT) -> int:
     """W: episodes of one policy in flight at once."""
     return max(1, min(episodes, in_flight // max(1, policies)))
@@ -82,7 +89,7 @@ class GymRollout:
         """
         task = self.task
         n_pol = len(policies)
-        width = slots_per_policy(n_pol, episodes)
+        width = slots_per_policy(n_pol, episodes, environments_in_flight(task))
         envs = self._pool(n_pol * width)
         rows = policies.indices[:, None] * (not common_initial_states)  # common: every policy resets as policy 0
         seeds = episode_reset_seeds(seed, rows, np.arange(episodes)[None, :])

@@ -102,6 +102,19 @@ class GymTask:
             return ("envpool", "gym")
         return ("vector", "gym") if seeds_each(self) else ("gym",)
 
+    @functools.cached_property
+    def environments_in_flight(self) -> int | None:
+        """How many of its envs the gym backend steps together, when the env class declares it (its
+        ``environments_in_flight`` attribute; None: the backend's default)."""
+        entry = self.spec.entry_point
+        if isinstance(entry, str):
+            try:
+                entry = gymnasium.envs.registration.load_env_creator(entry)
+            except (ImportError, AttributeError, ModuleNotFoundError):
+                return None
+        value = getattr(entry, "environments_in_flight", None)
+        return int(value) if isinstance(value, int) and value >= 1 else None
+
     def identity(self) -> dict:
         """The env id, its constructor arguments, the resolved episode limit and a digest of the source file
         that defines the env (so an edit to a researcher's env is a new task); not the display name."""
@@ -243,6 +256,10 @@ def _source_digest(spec: gymnasium.envs.registration.EnvSpec) -> str:
 
 
 def _dependency_message(env_id: str, err: Exception) -> str:
+    from taskcomplexity.tasks.manipulation import METAWORLD_EXTRA
+
+    if "metaworld" in str(err):
+        return f"task.env_id={env_id} needs metaworld, which is not installed: {METAWORLD_EXTRA}"
     if "mujoco" in str(err).lower():
         return f"task.env_id={env_id} needs MuJoCo, which is not installed: {MUJOCO_EXTRA}"
     return f"task.env_id={env_id} needs a package that is not installed: {err}"

@@ -2,7 +2,9 @@
 
 Every reaching task of the arm presets (``taskcomplexity/<Arm>-<Reward>-v0``; the arms of
 ``conf/arm/``, each with the rewards it allows: :func:`~taskcomplexity.tasks.spec.preset_tasks`) and
-the noisy CartPole of ``study=cartpole_noise`` (``taskcomplexity/NoisyCartPole-v0``).
+the noisy CartPole of ``study=cartpole_noise`` (``taskcomplexity/NoisyCartPole-v0``) and Meta-World's manipulation
+tasks seeded per episode (``taskcomplexity/MetaWorld-v3``, :mod:`taskcomplexity.tasks.manipulation`; metaworld is
+imported only by ``make``).
 """
 
 from __future__ import annotations
@@ -21,6 +23,8 @@ def gym_ids() -> dict[tuple[str, str], str]:
 
 NOISY_CARTPOLE_ID = "taskcomplexity/NoisyCartPole-v0"
 """CartPole-v0 with reset and dynamics noise (``tasks/classic/noisy_cartpole.py``)."""
+METAWORLD_ID = "taskcomplexity/MetaWorld-v3"
+"""One of Meta-World's 50 tasks (``task_name=…``, ``reward=dense|sparse``), its episodes a function of their reset seed."""
 
 
 def register_tasks() -> None:
@@ -40,3 +44,8 @@ def register_tasks() -> None:
             max_episode_steps=200,  # CartPole-v0's limit and reward threshold
             reward_threshold=195.0,
         )
+    if METAWORLD_ID not in gymnasium.registry:
+        from taskcomplexity.tasks.manipulation import EPISODE_STEPS
+
+        gymnasium.register(id=METAWORLD_ID, entry_point="taskcomplexity.tasks.manipulation:MetaWorldEnv",
+                           max_episode_steps=EPISODE_STEPS)
