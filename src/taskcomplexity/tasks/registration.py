@@ -24,7 +24,7 @@ def gym_ids() -> dict[tuple[str, str], str]:
 NOISY_CARTPOLE_ID = "taskcomplexity/NoisyCartPole-v0"
 """CartPole-v0 with reset and dynamics noise (``tasks/classic/noisy_cartpole.py``)."""
 METAWORLD_ID = "taskcomplexity/MetaWorld-v3"
-"""One of Meta-World's 50 tasks (``task_name=…``, ``reward=dense|sparse``), its episodes a function of their reset seed."""
+"""One of Meta-World's 50 tasks (``task_name=…``, ``reward=dense|sparse``), each episode a function of its seed."""
 
 
 def register_tasks() -> None:
