@@ -22,6 +22,8 @@ DIAGNOSTIC_FILES = ("null", "null_summary", "bins_sweep", "subsample_sweep", "es
 VERDICT_FILES = ("verdict", "summary", "references", "correlations", "values", "samples", "welch", "information",
                  "replications")
 SAC_FILE = "sac_per_seed"
+GROUP_FILES = ("groups", "group_relations")
+"""Verdict tables of a study with ordered difficulty groups (absent otherwise: ``StudyData.verdict`` lacks them)."""
 
 
 @dataclass
@@ -100,6 +102,8 @@ def load_study_data(
     loaded = {t: {name: pd.read_parquet(a.file(f"{name}.parquet")) for name in DIAGNOSTIC_FILES}
               for t, a in diagnostics.items()}
     tables = {name: pd.read_parquet(verdict.file(f"{name}.parquet")) for name in VERDICT_FILES}
+    if study.groups is not None:
+        tables.update({name: pd.read_parquet(verdict.file(f"{name}.parquet")) for name in GROUP_FILES})
     sac = verdict.file(f"{SAC_FILE}.parquet")
     return StudyData(
         study=study,

@@ -10,6 +10,7 @@ import pandas as pd
 from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue, significant_int
+from taskcomplexity.report.groups import group_sentences
 from taskcomplexity.report.verdict_tables import survival_tables
 from taskcomplexity.verdict.judge import SURVIVAL
 from taskcomplexity.verdict.references import CONFIDENCE, on_values, reference_label
@@ -73,15 +74,18 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
         The significance cut-off used (for the wording).
     """
     verdict, summary, registry = data.verdict["verdict"], data.verdict["summary"], data.registry
+    grouped = group_sentences(data, alpha=alpha)
     if verdict.empty:
         correlated = replication_sentences(data) + reference_sentences(data)
+        if grouped:
+            return grouped + information_sentences(data) + correlated
         if correlated:
             return correlated + ["The study gives no relation (easier, harder, kind) to judge, so there is no "
                                  "verdict by relation."]
         return [f"The study gives no relation to judge between its {plural(len(data.tasks), 'task')}, so there is "
                 "no verdict: the page shows the metrics of each task. Add relations (easier, harder, kind) to the "
                 "study file to judge them."]
-    sentences = information_sentences(data)
+    sentences = grouped + information_sentences(data)
     primary = [m.name for m in registry if m.primary and m.name in set(summary["metric"])]
     if primary:
         sentences.append(primary_sentence(summary, verdict, primary, label=registry.label, alpha=alpha))

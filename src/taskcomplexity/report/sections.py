@@ -10,6 +10,7 @@ import pandas as pd
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData, return_matrix
 from taskcomplexity.report.format import and_list, joined, num, of_total, plural, slug
+from taskcomplexity.report.groups import group_blocks
 from taskcomplexity.report.html import FigureBlock, Paragraph, Section, TableBlock
 from taskcomplexity.report.outcomes import legend as outcome_legend
 from taskcomplexity.report.sac_summary import format_sac_summary
@@ -124,7 +125,7 @@ def published_blocks(writer: Writer, data: StudyData) -> list:
 
 def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
     """The verdict box's tables: the relation × metric matrix and the per-metric summary."""
-    blocks = []
+    blocks = group_blocks(writer, data, alpha=alpha)
     if len(data.verdict["verdict"]):
         blocks.append(headline_matrix(writer, data, alpha=alpha))
     caption = ("Counts of outcomes over the known relations" if len(data.verdict["verdict"]) else

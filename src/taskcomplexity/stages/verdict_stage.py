@@ -26,12 +26,15 @@ Outputs under ``<cache>/verdict/<key>/``:
   value carries information, its null (mean, sd, repeats, p), the null's share of the value, and its
   ceiling ln N (:mod:`taskcomplexity.verdict.information`); a relation judged on a value without
   information is ``uninformative``;
+- ``groups.parquet`` and ``group_relations.parquet`` (a study with ordered difficulty ``groups``): each metric's
+  Kendall's τ-b and Spearman's ρ with the group order across tasks, with intervals over policies and across tasks,
+  and Welch's test between every ordered pair of groups (:mod:`taskcomplexity.verdict.groups`);
 - ``sac_per_seed.parquet`` (with SAC curves): final return, normalised final return and AUC, and
   steps to 90 % per (task, variant, seed).
 
 The key hashes the metrics and diagnostics keys of every task, a content hash of the SAC curves,
-the study's relations, orders, reference scores and algorithm scores, the significance cut-off and the registry's
-signature, so any change upstream (or a new metric) recomputes the verdict.
+the study's relations, orders, difficulty groups, reference scores and algorithm scores, the significance cut-off
+and the registry's signature, so any change upstream (or a new metric) recomputes the verdict.
 """
 
 from __future__ import annotations
@@ -63,6 +66,7 @@ from taskcomplexity.verdict import (
     summarise,
     uninformative,
 )
+from taskcomplexity.verdict.groups import group_relations, rank_agreement
 from taskcomplexity.verdict.references import correlations, quantities, reference_scores
 from taskcomplexity.verdict.replication import replications
 
@@ -71,11 +75,15 @@ log = logging.getLogger(__name__)
 STAGE = "verdict"
 NUMERICS = Numerics(version=7, modules=(
     "verdict.gather", "verdict.judge", "verdict.information", "verdict.references", "verdict.replication",
-    "metrics.registry", "metrics.batches", "metrics.sac", "metrics.statistics", "stages.verdict_stage",
+    "verdict.groups", "metrics.registry", "metrics.batches", "metrics.sac", "metrics.statistics",
+    "stages.verdict_stage",
 ))
 FILES = ("verdict.parquet", "summary.parquet", "references.parquet", "correlations.parquet", "values.parquet",
          "samples.parquet", "welch.parquet", "information.parquet", "replications.parquet")
 SAC_FILE = "sac_per_seed.parquet"
+GROUP_FILES = ("groups.parquet", "group_relations.parquet")
+"""Written only for a study with ordered difficulty ``groups``: each metric's rank agreement with them, and the
+relations between the groups (:mod:`taskcomplexity.verdict.groups`)."""
 
 
 def curves_digest(curves: pd.DataFrame | None) -> str | None:
@@ -113,6 +121,8 @@ def verdict_key(
         "registry": registry.signature(),
         "information": {m.name: m.information.identity() for m in registry if m.information is not None},
     }
+    if study.groups is not None:
+        payload["groups"] = {"order": list(study.groups.order), "tasks": study.difficulty()}
     for stage, keys in (stages or {}).items():  # the further policy-sample stages (occupancy, learning path)
         if keys:
             payload[stage] = dict(keys)
@@ -222,6 +232,12 @@ def run_verdict_stage(
                                   registry=registry)
         replicated = replications(correlated, study, registry=registry)
         welch = pairwise_welch(samples, registry=registry, alpha=alpha)
+        if study.groups is not None:
+            drawn = gather_draws(metrics, registry=registry)
+            rank_agreement(values, study, registry=registry, alpha=alpha, draws=drawn, information=checked).to_parquet(
+                directory / GROUP_FILES[0], index=False)
+            group_relations(values, study, registry=registry, alpha=alpha, information=checked).to_parquet(
+                directory / GROUP_FILES[1], index=False)
         for name, frame in (("verdict.parquet", table), ("summary.parquet", summary),
                             ("references.parquet", references), ("correlations.parquet", correlated),
                             ("values.parquet", values), ("samples.parquet", samples), ("welch.parquet", welch),

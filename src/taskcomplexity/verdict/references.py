@@ -175,34 +175,55 @@ def correlations(quantities_table: pd.DataFrame, references: pd.DataFrame, names
     present = list(dict.fromkeys(references["reference"]))
     chosen = [n for n in (names if names is not None else present) if n in present]
     sign = {m.name: 1.0 if m.higher_is_easier else -1.0 for m in registry} if registry is not None else {}
-    resampled = {}
-    if draws is not None and not draws.empty:
-        for metric, group in draws.groupby("metric", sort=False):
-            wide = group.pivot_table(index="resample", columns="task", values="value", aggfunc="first")
-            resampled[metric] = wide * sign.get(metric, 1.0)
+    resampled = easiness_draws(draws, registry) if registry is not None else {}
     checked = information if information is not None and not information.empty else None
     rows = []
     for (quantity, metric), group in quantities_table.groupby(["quantity", "metric"], sort=False):
         by_task = group.set_index("task")["value"].astype(float)
         own = resampled.get(metric) if quantity == metric else None
-        if own is not None:  # each task's draws centred on its whole-sample value: their spread, not their bias
-            own = own - own.mean() + by_task.reindex(own.columns)
-        bases = [(VALUE, by_task, own)]
-        if checked is not None and quantity == metric:
-            mine = checked[checked["metric"] == metric].set_index("task")
-            if len(mine):
-                keep = [t for t in by_task.index if t in mine.index and bool(mine.loc[t, "informative"])]
-                bases.append((INFORMATIVE, by_task.loc[keep], None if own is None else own[[
-                    t for t in keep if t in own.columns]]))
-                null = mine["null_mean"].astype(float) * sign.get(metric, 1.0)
-                if mine["null_share"].notna().any():
-                    net = (by_task - null.reindex(by_task.index)).dropna()
-                    bases.append((NET_OF_NULL, net, None if own is None else own.sub(null, axis=1)))
+        bases = on_bases(by_task, own, checked if quantity == metric else None, metric, sign.get(metric, 1.0))
         for basis, values, resamples in bases:
             for name in chosen:
                 rows.append({"quantity": quantity, "metric": metric, "reference": name, "basis": basis,
                              **_correlate(values, references, name, resamples)})
     return pd.DataFrame(rows, columns=list(CORRELATION_COLUMNS))
+
+
+def easiness_draws(draws: pd.DataFrame | None, registry: Registry) -> dict[str, pd.DataFrame]:
+    """Bootstrap draws (``task``, ``metric``, ``resample``, ``value``) as easiness, one wide table (resample × task)
+    per metric."""
+    sign = {m.name: 1.0 if m.higher_is_easier else -1.0 for m in registry}
+    resampled = {}
+    if draws is not None and not draws.empty:
+        for metric, group in draws.groupby("metric", sort=False):
+            wide = group.pivot_table(index="resample", columns="task", values="value", aggfunc="first")
+            resampled[metric] = wide * sign.get(metric, 1.0)
+    return resampled
+
+
+def on_bases(by_task: pd.Series, own: pd.DataFrame | None, checked: pd.DataFrame | None, metric: str,
+             sign: float) -> list[tuple[str, pd.Series, pd.DataFrame | None]]:
+    """A metric's easiness per task (and its bootstrap draws, resample × task) on each of :data:`BASES` it has.
+
+    Each task's draws are centred on its whole-sample value first (resampling policies biases a plug-in estimate by
+    an amount that differs between tasks: an interval is of the estimate's spread, not of that bias). With the
+    information table ``checked``, the metric also gets its informative tasks, and its value net of its null's mean
+    when it has a null.
+    """
+    if own is not None:
+        own = own - own.mean() + by_task.reindex(own.columns)
+    bases = [(VALUE, by_task, own)]
+    if checked is not None:
+        mine = checked[checked["metric"] == metric].set_index("task")
+        if len(mine):
+            keep = [t for t in by_task.index if t in mine.index and bool(mine.loc[t, "informative"])]
+            bases.append((INFORMATIVE, by_task.loc[keep], None if own is None else own[[
+                t for t in keep if t in own.columns]]))
+            null = mine["null_mean"].astype(float) * sign
+            if mine["null_share"].notna().any():
+                net = (by_task - null.reindex(by_task.index)).dropna()
+                bases.append((NET_OF_NULL, net, None if own is None else own.sub(null, axis=1)))
+    return bases
 
 
 def _correlate(values: pd.Series, references: pd.DataFrame, name: str, resamples: pd.DataFrame | None) -> dict:
