@@ -8,7 +8,7 @@ DOCS_STAMP := $(VENV)/.docs-installed
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost manipulation manipulation-cost manipulation-cluster atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost manipulation manipulation-cost manipulation-cluster test-manipulation atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 help: ## list the targets
 	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
@@ -137,6 +137,10 @@ cluster-down: ## stop the local SLURM cluster: its jobs cancelled, its daemons s
 cluster-cost: $(STAMP) cluster-up ## make atlas-cost's prediction beside the CPU the local cluster's jobs used (sacct), per task (ARGS=<overrides>)
 	$(PY) -m pip install --quiet -e '.[atlas]'
 	$(PY) bench/cluster_cost.py $(ARGS)
+
+test-manipulation: $(STAMP) ## installs the metaworld extra and runs the tests that need it: every Meta-World task seeded per episode (a minute)
+	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+	$(PY) -m pytest -q tests/tasks/test_manipulation.py
 
 test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the local cluster (starts it; make cluster-down stops it)
 	$(PY) -m pytest -q -m cluster
