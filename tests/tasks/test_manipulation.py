@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tests.tasks.test_config import CONF_DIR
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rwg.env_checks import EnvContractError, check_env
 from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.registration import METAWORLD_ID
-from tests.tasks.test_config import CONF_DIR
 
 metaworld = pytest.importorskip("metaworld", reason="the metaworld extra is not installed")
 
