@@ -164,8 +164,8 @@ docs: $(DOCS_STAMP) ## build the documentation site into site/ with --strict
 docs-serve: $(DOCS_STAMP) ## serve the documentation at http://127.0.0.1:8000 while you edit it
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs serve --dev-addr 127.0.0.1:8000
 
-bench: $(STAMP) ## benchmarks: figures and ratios measured side by side (installs the mujoco and envpool extras for bench_mujoco)
-	$(PY) -m pip install --quiet -e '.[mujoco,envpool]'
+bench: $(STAMP) ## benchmarks: figures and ratios measured side by side (installs the atlas and metaworld extras for bench_mujoco and bench_metaworld)
+	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
 	$(PY) bench/run.py $(ARGS)
 
 fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/explanation/fidelity.md (ARGS=--scan: + the torque scan)

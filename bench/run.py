@@ -42,6 +42,8 @@ QUICK: dict[str, list[str]] = {
     "bench_diagnostics": ["--policies", "200", "--episodes", "100", "--resamples", "100", "--repeats", "1",
                           "--skip-old"],
     "bench_kernel_split": ["--policies", "20", "--episodes", "100", "--repeats", "1"],
+    "bench_metaworld": ["--tasks", "reach,stick-push", "--steps", "500", "--policies", "8", "--episodes", "4",
+                        "--repeats", "1"],
     "bench_metrics": ["--policies", "500", "--episodes", "200", "--resamples", "50", "--repeats", "1"],
     "bench_mujoco": ["--steps", "1000", "--policies", "4", "--episodes", "8", "--chunk-policies", "2",
                      "--max-steps", "100", "--repeats", "1", "--pool-policies", "16"],
