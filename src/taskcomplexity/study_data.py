@@ -20,6 +20,7 @@ Example::
     groups: null          # optional: {order: [easy, …, hardest], source: "…"}: the entries' `group`s are ordered
                           # difficulty groups (rank agreement across tasks, and the relations between groups)
     reference: {}         # optional: id -> a reference score (higher = easier; Pearson/Spearman r)
+    reference_source: null  # optional: where the reference scores come from (the report cites it)
     algorithm_scores: {}  # optional: id -> {max: A_max, average: A_avg} of a learning algorithm
                           # (Score(A) and Score(R) of Furuta et al. 2021, correlated with every metric)
     network: null         # optional: the policy family of entries that choose none (the command line's
@@ -198,6 +199,8 @@ class Study:
         Named total orders of task ids, easiest first (Kendall's τ per order).
     reference : mapping of str to float
         Optional reference scores per task id, higher = easier.
+    reference_source : str or None
+        Where the reference scores come from (the report cites it).
     algorithm_scores : mapping of str to AlgorithmScore
         Optional scores of a learning algorithm per task id, from which the verdict derives Score(A)
         and Score(R) (:mod:`taskcomplexity.verdict.references`).
@@ -230,6 +233,7 @@ class Study:
     episodes: int | None = None
     published: PublishedScale | None = None
     groups: DifficultyGroups | None = None
+    reference_source: str | None = None
 
     @property
     def ids(self) -> tuple[str, ...]:
@@ -272,7 +276,8 @@ def study_from_config(node: Any) -> Study:
     if not isinstance(node, Mapping):
         raise ConfigError(f"study must be a mapping (name, tasks, relations, …), got {node!r}")
     allowed = {"name", "tasks", "relations", "orders", "reference", "algorithm_scores", "network", "prior", "kind",
-               "policies", "episodes", "published", "groups"}
+               "policies", "episodes", "published", "groups",
+               "reference_source"}
     unknown = sorted(set(node) - allowed)
     if unknown:
         raise ConfigError(f"study.{unknown[0]} is not a known key (allowed: {', '.join(sorted(allowed))})")
@@ -305,6 +310,9 @@ def study_from_config(node: Any) -> Study:
         if isinstance(score, bool) or not isinstance(score, (int, float)):
             raise ConfigError(f"study.reference.{task_id} must be a number, got {score!r}")
         reference[str(task_id)] = float(score)
+    source = node.get("reference_source")
+    if source is not None and (not isinstance(source, str) or not source or not reference):
+        raise ConfigError(f"study.reference_source must be a non-empty string beside study.reference, got {source!r}")
     algorithm_scores = {str(task_id): _algorithm_score(score, task_id, ids)
                         for task_id, score in (node.get("algorithm_scores") or {}).items()}
     family = {}
@@ -321,7 +329,7 @@ def study_from_config(node: Any) -> Study:
         counts[key] = value
     return Study(name=name, tasks=tasks, relations=relations, orders=orders, reference=reference,
                  algorithm_scores=algorithm_scores, kind=kind, published=_published(node.get("published"), ids),
-                 groups=_groups(node.get("groups"), tasks), **family, **counts)
+                 groups=_groups(node.get("groups"), tasks), reference_source=source, **family, **counts)
 
 
 def _groups(node: Any, tasks: tuple[StudyTask, ...]) -> DifficultyGroups | None:

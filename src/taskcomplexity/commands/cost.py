@@ -5,9 +5,9 @@
     make atlas-cost ARGS='study.policies=1000 study.episodes=1000 rwg.shards=100'
 
 Per task of the composed study (the same overrides as the run it prices), on the backend the run would take, two
-pilots of its first policies, each in one chunk (:func:`pilot_sizes`): on the ``gym`` and ``envpool`` backends
-``PILOT_POLICIES`` policies (on ``envpool`` a chunk's: one environment each) run ``PILOT_EPISODES[0]`` and then
-``PILOT_EPISODES[1]`` episodes; on the ``kernel`` and ``batched`` backends, which step a chunk's P × M episodes as
+pilots of its first policies, each in one chunk (:func:`pilot_sizes`): on the ``gym`` backend ``PILOT_POLICIES``
+policies (fewer for episodes longer than 200 steps), on ``envpool`` a chunk's (one environment each), run
+``PILOT_EPISODES[0]`` and then ``PILOT_EPISODES[1]`` episodes; on the ``kernel`` and ``batched`` backends, which step a chunk's P × M episodes as
 one batch, 2 and then 6 policies run the run's M. A chunk's CPU time is a fixed part (making its environments,
 sampling its policies) plus a part per episode, so the two pilots give both: CPU-s per episode = the difference of
 their CPU over the difference of their episodes, and the fixed part = the first pilot's CPU less its episodes'
@@ -45,6 +45,11 @@ log = logging.getLogger("cost")
 
 PILOT_POLICIES = 16
 """Policies of each pilot (the run's policies 0 … 15 of its seed); on EnvPool a whole chunk's (its batch)."""
+PILOT_STEPS = 3200
+"""On the gym backend, a pilot's policies × the episode limit T at most (with at least ``MIN_PILOT_POLICIES``): long,
+slow episodes (Meta-World's 500 steps at 0.3-0.8 ms a step) are priced on fewer policies, so that pricing 50 such
+tasks takes minutes, not the better part of an hour; tasks of up to 200 steps keep ``PILOT_POLICIES``."""
+MIN_PILOT_POLICIES = 4
 BATCHED = ("kernel", "batched")
 """Backends that step every episode of a chunk at once (numba kernels): a chunk costs what its batch (P × M episodes)
 costs, so their pilots run the run's M."""
@@ -113,14 +118,19 @@ def job_start_cpu(entry_id: str, typed: list[str]) -> float:
 
 def pilot_sizes(request) -> tuple[tuple[int, int], tuple[int, int]]:
     """(policies, episodes) of the two pilots of ``request``: on the batched backends, 2 and up to 6 policies at the
-    run's M (a chunk's cost is its batch's: P × M episodes stepped together); elsewhere ``PILOT_POLICIES`` (on
-    ``envpool``, a chunk's policies) at ``PILOT_EPISODES``."""
+    run's M (a chunk's cost is its batch's: P × M episodes stepped together); on ``envpool`` a chunk's policies, on
+    the gym backend ``PILOT_POLICIES`` (fewer for episodes longer than 200 steps: :data:`PILOT_STEPS`), at
+    ``PILOT_EPISODES``."""
     from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
 
     settings = request.settings
     if request.backend in BATCHED:
         return (2, settings.episodes), (min(PILOT_EPISODES[1], settings.policies), settings.episodes)
-    policies = min(settings.policies, POLICIES_PER_POOL if request.backend == "envpool" else PILOT_POLICIES)
+    if request.backend == "envpool":
+        policies = min(settings.policies, POLICIES_PER_POOL)
+    else:
+        steps = max(1, int(request.task.max_steps or 1))
+        policies = min(settings.policies, PILOT_POLICIES, max(MIN_PILOT_POLICIES, PILOT_STEPS // steps))
     return (policies, PILOT_EPISODES[0]), (policies, PILOT_EPISODES[1])
 
 

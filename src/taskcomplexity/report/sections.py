@@ -142,10 +142,11 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
                      "(max(r_max, A_max) − r_min), with r_min the worst policy mean, r_max the best episode return "
                      "and A_max, A_avg the study's algorithm scores (Furuta et al. 2021). "
                      if data.study.algorithm_scores else "")
+        cited = (f"The reference score: {data.study.reference_source}. " if data.study.reference_source else "")
         blocks.append(writer.table(
             reference_table(data), "reference_scores", "Metrics and reference scores per task.",
             "Point estimates on the whole sample (nats for the entropies and PIC/POIC, returns for r_mean; "
-            "variance is Var(R)/(r_max − r_min)) beside the reference scores. " + algorithm))
+            "variance is Var(R)/(r_max − r_min)) beside the reference scores. " + algorithm + cited))
         blocks.append(writer.table(
             correlation_display(data), "reference_correlations", f"Correlation with {named}.",
             "Pearson r (two-sided p) and Spearman ρ across tasks between each reference score and each metric's "
