@@ -9,12 +9,12 @@ pilots of its first policies, each in one chunk (:func:`pilot_sizes`): on the ``
 policies (fewer for episodes longer than 200 steps), on ``envpool`` a chunk's (one environment each), run
 ``PILOT_EPISODES[0]`` and then ``PILOT_EPISODES[1]`` episodes; on the ``kernel`` and ``batched`` backends, which
 step a chunk's P × M episodes as one batch, 2 and then 6 policies run the run's M. A chunk's CPU time is a fixed
-part (making its environments, sampling its policies) plus a part per episode, so the two pilots give both: CPU-s per episode = the difference of
-their CPU over the difference of their episodes, and the fixed part = the first pilot's CPU less its episodes'
-share. The estimate is then N × M × CPU-s per episode + the run's chunks × the fixed part; episode lengths vary
-between policies, so the pilots' policies stand for the N (the table gives their mean episode length beside the
-limit T). Nothing is cached: the pilots' returns are thrown away; the RWG stage's own cache is not read either (a
-cached task costs nothing to rerun).
+part (making its environments, sampling its policies) plus a part per episode, so the two pilots give both: CPU-s
+per episode = the difference of their CPU over the difference of their episodes, and the fixed part = the first
+pilot's CPU less its episodes' share. The estimate is then N × M × CPU-s per episode + the run's chunks × the fixed
+part; episode lengths vary between policies, so the pilots' policies stand for the N (the table gives their mean
+episode length beside the limit T). Nothing is cached: the pilots' returns are thrown away; the RWG stage's own
+cache is not read either (a cached task costs nothing to rerun).
 
 The wall time assumes every usable core of this machine busy. Sent as jobs (``rwg.shards=K`` > 1, or with
 ``hydra/launcher=cluster``), every task is K jobs of a 1/K share each, and each job also starts a fresh process
