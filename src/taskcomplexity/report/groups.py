@@ -104,6 +104,7 @@ def group_sentences(data: StudyData, *, alpha: float) -> list[str]:
         else:
             clauses.append(f"{label} does not order them{net}: {_tau(row)}")
     sentences = [first + (": " + "; ".join(clauses) if clauses else "") + "."]
+    sentences += information_by_group(data)
     others = {}
     for metric in dict.fromkeys(ranks["metric"]):
         if metric in registry and registry[metric].primary:
@@ -118,6 +119,51 @@ def group_sentences(data: StudyData, *, alpha: float) -> list[str]:
     elif others:
         sentences.append(f"None of the other {plural(sum(map(len, others.values())), 'measure')} ranks the groups "
                          "significantly.")
+    return sentences
+
+
+def information_by_group(data: StudyData) -> list[str]:
+    """Per primary metric the information check checks: on how many tasks of each group its value carries
+    information, why not on the others, and what more sampling does to that (the plug-in estimator's rules of
+    ``docs/explanation/information-check.md``: with B held its nulls shrink with M; under ``metrics.bins=auto``
+    more policies do not settle it; a ceiling ln N rises with N)."""
+    checked, registry, groups = data.verdict.get("information"), data.registry, data.study.groups
+    if checked is None or checked.empty:
+        return []
+    present = [g for g in groups.order if any(data.study.task(t).group == g for t in data.tasks)]
+    sentences = []
+    for metric in (m for m in registry if m.primary and m.information is not None):
+        mine = checked[checked["metric"] == metric.name].set_index("task")
+        if mine.empty:
+            continue
+        informative = mine["informative"].astype(bool)
+        per_group = []
+        for group in present:
+            tasks = [t for t in data.tasks if data.study.task(t).group == group and t in mine.index]
+            per_group.append(f"{group_label(group)} {int(informative[tasks].sum())} of {len(tasks)}")
+        reasons = mine.loc[~informative, "reason"].astype(str)
+        why = []
+        for cause, words in (("permutation null", "equals its permutation null"),
+                             ("ceiling", "sits at its ceiling ln N")):
+            hit = int(reasons.str.contains(cause).sum())
+            if hit:
+                why.append(f"on {plural(hit, 'task')} it {words}")
+        sentence = (f"The information check finds {metric.label} informative on {int(informative.sum())} of the "
+                    f"{plural(len(mine), 'task')} ({', '.join(per_group)})")
+        sentence += ("; " + " and ".join(why) if why else "") + "."
+        if int((~informative).sum()):
+            advice = []
+            if metric.information.binned:
+                advice.append("with B held (metrics.bins) its nulls shrink with more episodes M, while under "
+                              "metrics.bins=auto more policies do not settle it")
+            elif metric.information.null:
+                advice.append("its nulls move with N and M, and the report does not predict them there: a larger "
+                              "budget is measured, not projected")
+            if metric.information.ceiling and reasons.str.contains("ceiling").any():
+                advice.append("the ceiling ln N rises with the policies N")
+            if advice:
+                sentence += f" For the rest, {'; '.join(advice)}."
+        sentences.append(sentence)
     return sentences
 
 
