@@ -61,7 +61,7 @@ def test_the_headline_states_the_verdicts_own_tau_for_each_primary_metric(groupe
     assert "easy (2) < medium (1) < hard (2); a test's grouping" in headline
     for metric, label in (("pic", "PIC"), ("poic", "POIC")):
         row = ranks[(ranks["metric"] == metric) & (ranks["basis"] == judged_basis(ranks, metric))].iloc[0]
-        said = re.search(rf"{label} [^;]*?τ-b = (\S+?)[ ,].*?p = ([^;.]+)", headline)
+        said = re.search(rf"{label} [^:]*: τ-b = (\S+?)(?: \([^)]*\))?, p = ([^;\s]+?)[;.]?(?:\s|$)", headline)
         assert said is not None, headline
         assert said.group(1) == num(row["kendall_tau"], 2) and said.group(2).strip() == pvalue(row["kendall_p"])
     assert "The information check finds PIC informative on" in markdown

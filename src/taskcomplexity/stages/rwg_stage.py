@@ -48,7 +48,7 @@ EPISODES = (
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
     "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
     "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets", "tasks.envpool_ids",
-    "tasks.vectorised",
+    "tasks.vectorised", "tasks.manipulation",
 )
 """The modules that make a task's episodes under a batch of sampled policies: the policy families and their
 sampling, the physics and reward kernels, the PyBullet and gymnasium envs, the backends that step them."""

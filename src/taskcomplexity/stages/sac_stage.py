@@ -46,7 +46,7 @@ NUMERICS = Numerics(version=1, modules=(
     "policies.mlp",
     "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.pybullet_env",
     "tasks.goal_env", "tasks.gym_task", "tasks.batched_vector", "tasks.batched", "tasks.step_kernel", "tasks.dynamics",
-    "tasks.rollout_kernel", "tasks.contact", "stages.sac_stage",
+    "tasks.rollout_kernel", "tasks.contact", "tasks.manipulation", "stages.sac_stage",
 ))
 CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
