@@ -313,6 +313,27 @@ def correlated_panels(metrics: pd.DataFrame, y: str, panels: Sequence[tuple[str,
     return Correlated(shown, pairs, gaps)
 
 
+MAX_TASK_LEGEND = 16
+"""Above this many tasks a figure's legend names the groups (marker and colour of the first task of each), not the
+tasks: 50 names would cover the panels."""
+
+
+def legend_handles(styles: Mapping[str, TaskStyle]) -> tuple[list, str]:
+    """The legend of a figure of ``styles``' tasks, and its title: a handle per task, or per group above
+    :data:`MAX_TASK_LEGEND` tasks (none when the tasks have no groups)."""
+    def handle(style: TaskStyle, label: str):
+        return mpl.lines.Line2D([], [], linestyle="", marker=style.marker, markerfacecolor=style.colour,
+                                markeredgecolor="black", markeredgewidth=0.4, markersize=6, label=label)
+
+    if len(styles) <= MAX_TASK_LEGEND:
+        return [handle(style, style.name) for style in styles.values()], "task"
+    first = {}
+    for style in styles.values():
+        if style.group is not None:
+            first.setdefault(style.group, style)
+    return [handle(style, group.replace("_", " ")) for group, style in first.items()], "group"
+
+
 def score_scatter_figure(
     metrics: pd.DataFrame,
     styles: Mapping[str, TaskStyle],
@@ -365,14 +386,10 @@ def score_scatter_figure(
             ax.set_ylabel(y[1])
         for ax in list(axes.flat)[len(panels):]:
             ax.axis("off")
-        handles = [
-            mpl.lines.Line2D([], [], linestyle="", marker=style.marker, markerfacecolor=style.colour,
-                             markeredgecolor="black", markeredgewidth=0.4, markersize=6, label=style.name)
-            for style in styles.values()
-        ]
-        if legend_panel:
-            list(axes.flat)[len(panels)].legend(handles=handles, loc="center", frameon=False, title="task")
-        else:
+        handles, title = legend_handles(styles)
+        if legend_panel and handles:
+            list(axes.flat)[len(panels)].legend(handles=handles, loc="center", frameon=False, title=title)
+        elif handles:
             figure.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 4), frameon=False)
     return figure
 

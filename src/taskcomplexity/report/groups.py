@@ -19,12 +19,10 @@ from matplotlib.figure import Figure
 from taskcomplexity.report import figures as fig
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import and_list, num, plural, pvalue
+from taskcomplexity.report.labels import GROUP_COLOURS
 from taskcomplexity.report.writer import Writer
 from taskcomplexity.verdict.groups import AGREE, CONTRADICT, NOT_SIGNIFICANT, UNINFORMATIVE
 from taskcomplexity.verdict.references import NET_OF_NULL, VALUE
-
-GROUP_COLOURS = ("#1e8449", "#1f5aa6", "#d68910", "#c0392b", "#7d3c98", "#5d6d7e")
-"""Colours of the groups, easiest first (green → red)."""
 
 
 def has_groups(data: StudyData) -> bool:
@@ -206,7 +204,7 @@ def group_figure(data: StudyData, metrics: list[str]) -> Figure:
     ranks, registry, groups = data.verdict["groups"], data.registry, data.study.groups
     values, checked = data.verdict["values"], data.verdict.get("information")
     present = [g for g in groups.order if any(data.study.task(t).group == g for t in data.tasks)]
-    colours = dict(zip(groups.order, GROUP_COLOURS * 2, strict=False))
+    colours = {g: GROUP_COLOURS[i % len(GROUP_COLOURS)] for i, g in enumerate(groups.order)}
     columns = min(len(metrics), 3)
     rows = -(-len(metrics) // columns)
     rng = np.random.default_rng(0)  # the jitter only places dots; it is the same on every build

@@ -1,9 +1,10 @@
 """How each task of a study is shown: its name, colour, marker and group, all from the study file.
 
-A task's name is its study label, followed by its group when another task of the study has the same
-label (the paper's "1-link, L = 1.0 m, dense" and "…, sparse"). Its colour is the study's ``color``,
-else the colour-blind palette at its position in the study, so a task keeps its colour whichever
-tasks a figure shows. Markers distinguish the groups (one marker when the study has none).
+A task's name is its study label, followed by its group when another task of the study has the same label (the
+paper's "1-link, L = 1.0 m, dense" and "…, sparse"). Its colour is the study's ``color``, else its difficulty
+group's when the study orders its groups, else the colour-blind palette at its position in the study, so a task
+keeps its colour whichever tasks a figure shows. Markers distinguish the groups (one marker when the study has
+none).
 """
 
 from __future__ import annotations
@@ -17,6 +18,9 @@ from taskcomplexity.study_data import Study
 
 MARKERS = ("o", "^", "s", "D", "v", "P", "X", "*")
 """Markers of the study's groups, in the order the groups first appear."""
+GROUP_COLOURS = ("#1e8449", "#1f5aa6", "#d68910", "#c0392b", "#7d3c98", "#5d6d7e")
+"""Colours of a study's ordered difficulty groups, easiest first (green → red): a task without a ``color`` of its
+own takes its group's."""
 
 
 @dataclass(frozen=True)
@@ -57,6 +61,7 @@ def task_styles(study: Study, ids: Iterable[str] | None = None) -> dict[str, Tas
     position = {task.id: i for i, task in enumerate(study.tasks)}
     extra = len(study.tasks)
     groups = list(dict.fromkeys(g for _, _, g, _ in entries if g is not None))
+    ordered = list(study.groups.order) if study.groups is not None else []
     labels = [label for _, label, _, _ in entries]
     styles = {}
     for task_id, label, group, colour in entries:
@@ -66,6 +71,8 @@ def task_styles(study: Study, ids: Iterable[str] | None = None) -> dict[str, Tas
         if labels.count(label) > 1:
             name = f"{label}, {group}" if group is not None else f"{label} ({task_id})"
         marker = MARKERS[groups.index(group) % len(MARKERS)] if group is not None else MARKERS[0]
+        if colour is None and group in ordered:
+            colour = GROUP_COLOURS[ordered.index(group) % len(GROUP_COLOURS)]
         styles[task_id] = TaskStyle(task_id, label, name, group, colour or palette[position[task_id] % len(palette)],
                                     marker)
     return styles
