@@ -27,7 +27,7 @@ import seaborn as sns
 from matplotlib.figure import Figure
 
 from taskcomplexity.metrics import policy_statistics
-from taskcomplexity.report.labels import TaskStyle
+from taskcomplexity.report.labels import GROUP_COLOURS, TaskStyle
 from taskcomplexity.verdict.references import correlation
 
 RETURN_UNIT = "sum of rewards"
@@ -331,7 +331,12 @@ def legend_handles(styles: Mapping[str, TaskStyle]) -> tuple[list, str]:
     for style in styles.values():
         if style.group is not None:
             first.setdefault(style.group, style)
-    return [handle(style, group.replace("_", " ")) for group, style in first.items()], "group"
+
+    def rank(group: str) -> int:  # ordered difficulty groups (their colours) first, easiest first
+        colour = first[group].colour
+        return GROUP_COLOURS.index(colour) if colour in GROUP_COLOURS else len(GROUP_COLOURS)
+
+    return [handle(first[group], group.replace("_", " ")) for group in sorted(first, key=rank)], "group"
 
 
 def score_scatter_figure(
