@@ -12,6 +12,9 @@ figures
     The figures (seaborn on matplotlib), each saved as PNG and PDF.
 format
     Number and text formatting shared by every table (one format per kind of number).
+groups
+    A study's ordered difficulty groups: the headline, the figure of every metric by group, the rank-agreement
+    and group-relations tables.
 headline
     The verdict in words: one or two sentences, then the details.
 html

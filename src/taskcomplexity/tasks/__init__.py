@@ -24,6 +24,8 @@ goal_env
     A goal-conditioned view of a reaching task, for Hindsight Experience Replay.
 gym_task
     Any registered gymnasium id as a Task.
+manipulation
+    Meta-World's manipulation tasks as gymnasium envs whose episodes follow from their reset seeds.
 mechanics
     Semantics shared by both backends: angle wrapping, kinematics, observations, clearances, rewards.
 pybullet_env

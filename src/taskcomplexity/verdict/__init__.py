@@ -6,6 +6,8 @@ Modules
 -------
 gather
     Tidy values, samples and shown details of every registered metric from the stages' tables.
+groups
+    A study's ordered difficulty groups: each metric's rank agreement with them, and the relations between groups.
 information
     Whether each value carries information (above its permutation null, below its ceiling).
 judge
