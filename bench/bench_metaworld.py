@@ -20,7 +20,7 @@ For each task (default: one of each difficulty group of ``study=metaworld``), th
   a fixed cost per task that a larger N spreads thinner.
 
 Ratios: each row against the floor and against Meta-World's own step. The RWG path cannot go below Meta-World's
-step without changing its returns (its observation and reward code is what makes a step cost 3-6 floors); the
+step without changing its returns (its observation and reward code is what makes a step cost 3-9 floors); the
 figure to watch is the RWG path's overhead over that step, and CPU-s / wall-s of the every-core run (cores busy).
 Timings are facts printed, never an exit status; medians over the repeats, a first small run untimed.
 """
