@@ -121,3 +121,13 @@ def test_a_bad_groups_block_is_one_line(groups, message):
                                    {"id": "b", "env_id": "CartPole-v1", "group": "hard"}], "groups": groups}
     with pytest.raises(ConfigError, match=message):
         study_from_config(node)
+
+
+def test_a_group_the_study_lacks_leaves_the_others_compared_by_their_own_names():
+    """Tasks in easy and hard only (no medium): one relation, easy < hard, over the right tasks."""
+    easiness = np.array([1.0, 0.9, 0.95, 0.1, 0.2, 0.15])
+    table = group_relations(values(easiness), study(("easy",) * 3 + ("hard",) * 3), registry=DEFAULT_REGISTRY,
+                            alpha=0.005)
+    row = table.iloc[0]
+    assert len(table) == 1 and (row["easier"], row["harder"]) == ("easy", "hard")
+    assert (row["tasks_easier"], row["tasks_harder"]) == (3, 3) and row["mean_easier"] > row["mean_harder"]

@@ -76,11 +76,7 @@ def rank_agreement(values: pd.DataFrame, study: Study, *, registry: Registry, al
     checked = information if information is not None and not information.empty else None
     rows = []
     for metric in _ranked(values, registry):
-        sign = 1.0 if registry[metric].higher_is_easier else -1.0
-        mine = values[(values["metric"] == metric) & values["task"].isin(list(difficulty))]
-        by_task = mine.set_index("task")["value"].astype(float) * sign
-        for basis, easiness, own in on_bases(by_task, resampled.get(metric), checked, metric, sign):
-            easiness = easiness[np.isfinite(easiness.to_numpy(dtype=np.float64))]
+        for basis, easiness, own in _bases(values, metric, difficulty, registry, resampled.get(metric), checked):
             tasks = list(easiness.index)
             known = -np.array([difficulty[t] for t in tasks], dtype=np.float64)  # higher = easier group
             y = easiness.to_numpy(dtype=np.float64)
@@ -93,6 +89,17 @@ def rank_agreement(values: pd.DataFrame, study: Study, *, registry: Registry, al
 def _ranked(values: pd.DataFrame, registry: Registry) -> list[str]:
     """The metrics of ``values`` that rank tasks (comparable across tasks), in registry order."""
     return [m for m in registry.order(values["metric"]) if m in registry and registry[m].comparable_across_tasks]
+
+
+def _bases(values: pd.DataFrame, metric: str, difficulty: dict[str, int], registry: Registry,
+           draws: pd.DataFrame | None, checked: pd.DataFrame | None):
+    """The metric's easiness on the grouped tasks, finite, on each basis (with its draws):
+    :func:`~taskcomplexity.verdict.references.on_bases` of the metric's values as easiness."""
+    sign = 1.0 if registry[metric].higher_is_easier else -1.0
+    mine = values[(values["metric"] == metric) & values["task"].isin(list(difficulty))]
+    by_task = mine.set_index("task")["value"].astype(float) * sign
+    for basis, easiness, own in on_bases(by_task, draws, checked, metric, sign):
+        yield basis, easiness[np.isfinite(easiness.to_numpy(dtype=np.float64))], own
 
 
 def _rank(known: np.ndarray, y: np.ndarray, own: pd.DataFrame | None, tasks: list[str]) -> dict:
@@ -150,12 +157,8 @@ def group_relations(values: pd.DataFrame, study: Study, *, registry: Registry, a
     checked = information if information is not None and not information.empty else None
     rows = []
     for metric in _ranked(values, registry):
-        sign = 1.0 if registry[metric].higher_is_easier else -1.0
-        mine = values[(values["metric"] == metric) & values["task"].isin(list(difficulty))]
-        by_task = mine.set_index("task")["value"].astype(float) * sign
-        for basis, easiness, _ in on_bases(by_task, None, checked, metric, sign):
-            easiness = easiness[np.isfinite(easiness.to_numpy(dtype=np.float64))]
-            members = {g: easiness[[t for t in easiness.index if order[difficulty[t]] == g]].to_numpy()
+        for basis, easiness, _ in _bases(values, metric, difficulty, registry, None, checked):
+            members = {g: easiness[[t for t in easiness.index if study.groups.order[difficulty[t]] == g]].to_numpy()
                        for g in order}
             for i, easier in enumerate(order):
                 for harder in order[i + 1:]:
