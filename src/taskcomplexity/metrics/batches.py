@@ -9,6 +9,7 @@ Welch's unequal-variance t-test on their batch values (``docs/explanation/estima
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping
 from typing import NamedTuple
 
@@ -30,7 +31,8 @@ class WelchResult(NamedTuple):
 
 
 def welch_test(a: object, b: object) -> WelchResult:
-    """Two-sided Welch (unequal-variance) t-test of equal means.
+    """Two-sided Welch (unequal-variance) t-test of equal means: :func:`scipy.stats.ttest_ind` with
+    ``equal_var=False``.
 
     Parameters
     ----------
@@ -43,17 +45,17 @@ def welch_test(a: object, b: object) -> WelchResult:
         ``t = (mean a - mean b) / sqrt(var a / n_a + var b / n_b)`` (variances with ddof 1) and
         ``p = 2 · P(T > |t|)`` for Student's T with the Welch–Satterthwaite degrees of freedom.
         When both samples are constant the test is undefined: t is ±inf with p = 0 if the means
-        differ, and t = p = NaN if they are equal (as :func:`scipy.stats.ttest_ind`).
+        differ, and t = p = NaN if they are equal (scipy's values, without its warning of a
+        catastrophic cancellation, which a constant sample does not suffer).
     """
     a, b = _sample(a, "a"), _sample(b, "b")
-    difference, spread, dof = _welch_terms(a, b)
-    if spread == 0:
+    if _constant(a) and _constant(b):
+        difference = a[0] - b[0]
         if difference == 0:
             return WelchResult(float("nan"), float("nan"))
         return WelchResult(float(np.copysign(np.inf, difference)), 0.0)
-    statistic = difference / np.sqrt(spread)
-    pvalue = 2.0 * scipy.stats.t.sf(abs(statistic), dof)
-    return WelchResult(float(statistic), float(pvalue))
+    result = _ttest(a, b)
+    return WelchResult(float(result.statistic), float(result.pvalue))
 
 
 def policies_to_resolve(a: object, b: object, policies: int, *, alpha: float = SIGNIFICANCE_LEVEL) -> float:
@@ -89,13 +91,13 @@ def policies_to_resolve(a: object, b: object, policies: int, *, alpha: float = S
     a, b = a[np.isfinite(a)], b[np.isfinite(b)]
     if a.size < 2 or b.size < 2:
         return float("nan")
-    difference, spread, dof = _welch_terms(a, b)
-    if spread == 0:
+    if _constant(a) and _constant(b):
         return float("nan")
-    if difference == 0:
+    measured = _ttest(a, b)
+    if measured.statistic == 0:
         return float("inf")
-    critical = scipy.stats.t.isf(alpha / 2.0, dof)
-    return float(math.ceil(policies * critical**2 * spread / difference**2))
+    critical = scipy.stats.t.isf(alpha / 2.0, measured.df)
+    return float(math.ceil(policies * (critical / measured.statistic) ** 2))
 
 
 def welch_matrix(samples: Mapping[str, object], *, alpha: float = SIGNIFICANCE_LEVEL) -> pd.DataFrame:
@@ -159,17 +161,19 @@ def format_welch_matrix(tests: pd.DataFrame, *, digits: int = 3) -> pd.DataFrame
     return table.fillna("")
 
 
-def _welch_terms(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
-    """(mean a − mean b, var a / n_a + var b / n_b, Welch–Satterthwaite degrees of freedom; NaN when both
-    variances are 0)."""
-    var_a, var_b = a.var(ddof=1) / a.size, b.var(ddof=1) / b.size
-    spread = var_a + var_b
-    if spread == 0:
-        return float(a.mean() - b.mean()), 0.0, float("nan")
-    # The variances scaled by their maximum, so that squaring tiny (or huge) ones cannot underflow (overflow).
-    ratio_a, ratio_b = var_a / max(var_a, var_b), var_b / max(var_a, var_b)
-    dof = (ratio_a + ratio_b) ** 2 / (ratio_a**2 / (a.size - 1) + ratio_b**2 / (b.size - 1))
-    return float(a.mean() - b.mean()), float(spread), float(dof)
+def _ttest(a: np.ndarray, b: np.ndarray):
+    """scipy's Welch test of two samples, not both constant."""
+    with warnings.catch_warnings():
+        if _constant(a) or _constant(b):
+            # scipy warns of a catastrophic cancellation whenever a sample's spread is tiny beside its mean; a
+            # constant sample's variance is exactly 0, so the warning says nothing of it.
+            warnings.filterwarnings("ignore", message="Precision loss occurred", category=RuntimeWarning)
+        return scipy.stats.ttest_ind(a, b, equal_var=False)
+
+
+def _constant(values: np.ndarray) -> bool:
+    """Whether every value equals the first (the sample's variance is 0)."""
+    return bool(np.all(values == values[0]))
 
 
 def _sample(values: object, name: str) -> np.ndarray:
