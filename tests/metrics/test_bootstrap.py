@@ -72,6 +72,17 @@ def test_bootstrap_table_columns_and_provenance(continuous_returns):
     assert draws.attrs["seed"] == 1 and draws.attrs["confidence"] == 0.9 and draws.attrs["bins"] == 50
 
 
+def test_bootstrap_advances_a_stages_bar_and_leaves_it_open(continuous_returns):
+    import io
+
+    from tqdm.auto import tqdm
+
+    with tqdm(total=100, file=io.StringIO()) as bar:
+        bootstrap(continuous_returns, seed=1, resamples=7, bins=50, progress=bar)
+        # PIC and POIC per resample; tqdm disables a bar it closes, so an enabled one is still open
+        assert bar.n == 2 * 7 and not bar.disable
+
+
 def test_resample_indices_are_seeded_draws_with_replacement():
     first = list(bootstrap_indices(6, resamples=4, seed=3))
     assert [i.tolist() for i in first] == [i.tolist() for i in bootstrap_indices(6, resamples=4, seed=3)]

@@ -45,6 +45,7 @@ from taskcomplexity.metrics.pic import DEFAULT_BINS
 from taskcomplexity.metrics.poic import PolicyLogMeans, SearchResult, search_poic, shared_log_means
 from taskcomplexity.metrics.resampled_histograms import SortedReturns, pooled_xlogx, sorted_row_xlogx
 from taskcomplexity.metrics.temperature import DEFAULT_SEARCH, POICSearch, TemperatureLattice, check_search
+from taskcomplexity.progress import Progress, progress_bar
 
 BOOTSTRAP_COLUMNS = (
     "resample",
@@ -107,7 +108,7 @@ def bootstrap(
     search: POICSearch = DEFAULT_SEARCH,
     optimal_return: float | None = None,
     confidence: float = 0.95,
-    progress: bool = False,
+    progress: Progress = False,
     log_means: PolicyLogMeans | None = None,
 ) -> pd.DataFrame:
     """Bootstrap distribution of PIC and POIC over resampled policies.
@@ -127,8 +128,8 @@ def bootstrap(
         The POIC temperature search and known optimal return (see :func:`~taskcomplexity.metrics.poic.poic`).
     confidence : float, default 0.95
         Level of the percentile interval; stored in ``attrs`` for :func:`summarise_bootstrap`.
-    progress : bool, default False
-        Show a tqdm progress bar.
+    progress : bool or tqdm, default False
+        No bar, a bar of its own, or a stage's bar that the resamples advance (:mod:`taskcomplexity.progress`).
     log_means : PolicyLogMeans, optional
         ``PolicyLogMeans(returns)`` shared with the point estimate
         (:func:`~taskcomplexity.metrics.poic.poic`), so that the temperatures it evaluated are not
@@ -151,7 +152,7 @@ def bootstrap(
     confidence = check_fraction(confidence, "confidence")
 
     weights = bootstrap_multiplicities(returns.shape[0], resamples=resamples, seed=seed)
-    bar = _progress_bar(2 * resamples, progress)
+    bar = progress_bar(progress, total=2 * resamples, desc="bootstrap", unit="estimate")
     try:
         h_r, h_r_given_theta = _bootstrap_pic(returns, weights, bins, bar.update)
         found = _bootstrap_poic(shared_log_means(returns, log_means), weights, lattice, optimal_return)
@@ -278,19 +279,3 @@ def _bootstrap_poic(
     if optimal_return is not None:
         s_star = np.maximum(s_star, optimal_return)
     return search_poic(source, lattice, weights, s_star)
-
-
-class _NoBar:
-    def update(self, n: int = 1) -> None:
-        pass
-
-    def close(self) -> None:
-        pass
-
-
-def _progress_bar(total: int, enabled: bool):
-    if not enabled:
-        return _NoBar()
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc="bootstrap", unit="estimate")
