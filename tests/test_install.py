@@ -154,9 +154,10 @@ def test_the_installed_study_command_runs_a_study_of_ones_own_from_any_directory
     assert len(list(outputs.glob("cache/metrics/*/metrics.parquet"))) == 2
     (verdict,) = outputs.glob("cache/verdict/*/verdict.parquet")
     assert not pd.read_parquet(verdict).empty
-    report = outputs / "reports" / "mine-smoke"
+    (report,) = (path.parent for path in outputs.glob("reports/mine-smoke/*/run.json"))
     assert (report / "index.html").is_file() and (report / "report.md").is_file()
     assert f"Report: {report / 'index.html'}" in result.stdout
+    assert (outputs / "reports" / "mine-smoke" / "index.html").is_file()  # the stable link to the latest
     (config,) = outputs.glob("runs/*/*/.hydra/config.yaml")
     assert "name: mine" in config.read_text()
 

@@ -278,7 +278,7 @@ def test_sac_runs_sent_as_jobs_are_read_back_by_the_study(environment, tmp_path)
     log = next((outputs / "runs").glob("*/*/study.log")).read_text()
     assert "all 10 runs in the cache" in log
     jobs = array_tasks(sweep)
-    [report] = (outputs / "reports").glob("*/report.md")
+    [report] = (outputs / "reports").glob("*/*/report.md")
     [where] = [line for line in report.read_text().splitlines() if line.startswith("- **Where SAC ran**")]
     assert where.startswith(f"- **Where SAC ran**: 7 SLURM jobs ({jobs[0]}–{jobs[-1]}) on {os.uname().nodename} "
                             "(every task);")

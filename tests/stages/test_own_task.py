@@ -69,7 +69,7 @@ def test_a_researchers_own_env_and_study_run_through_to_a_verdict(tmp_path):
     done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "Report:" in done.stdout
-    verdict = pd.read_csv(outputs / "reports" / "lab" / "tables" / "verdict_tidy.csv")
+    (verdict,) = (pd.read_csv(path) for path in (outputs / "reports" / "lab").glob("*/tables/verdict_tidy.csv"))
     judged = verdict[(verdict["easier"] == "calm") & (verdict["harder"] == "noisy")]
     assert {"pic", "poic"} <= set(judged["metric"])
     assert set(judged["outcome"]) <= set(OUTCOMES)

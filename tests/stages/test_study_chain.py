@@ -38,7 +38,8 @@ def smoke(tmp_path_factory):
 
 def test_smoke_study_writes_a_self_contained_report_and_says_where(smoke):
     cfg, index, printed = smoke
-    assert index == Path(cfg.paths.outputs) / "reports" / "seven_tasks-smoke" / "index.html"
+    reports = Path(cfg.paths.outputs) / "reports"
+    assert index.parent.parent == reports / "seven_tasks-smoke" and index.name == "index.html"
     html = index.read_text()
     assert "verdict" in html.lower()
     assert not re.search(r'<(script|link)\b', html)
@@ -49,7 +50,8 @@ def test_smoke_study_writes_a_self_contained_report_and_says_where(smoke):
     assert figures and tables
     assert all(p.stat().st_size > 0 for p in figures + tables)
     assert (index.parent / "report.md").stat().st_size > 0
-    assert printed.strip().splitlines()[-1] == f"Report: {index.resolve()}"
+    assert printed.strip().splitlines()[-2:] == [f"Report: {index.resolve()}",
+                                                 f"Every report: {(reports / 'index.html').resolve()}"]
 
 
 def test_a_report_off_the_published_scale_says_so_and_says_how_to_get_sac_curves(smoke):
@@ -70,6 +72,27 @@ def test_a_second_run_only_hits_the_cache(smoke, caplog):
     assert "computed:" not in caplog.text
     assert caplog.text.count("cache hit") >= 7
     assert "cache hit: verdict" in caplog.text and re.search(r"verdict +cache hit: ", caplog.text)
+
+
+def test_two_runs_whose_numbers_differ_keep_two_reports_and_the_index_lists_both(smoke):
+    cfg, index, _ = smoke
+    reports = Path(cfg.paths.outputs) / "reports"
+    other = cfg.copy()
+    with open_dict(other):
+        other.metrics.bins = 500
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr("builtins.print", lambda *a, **k: None)
+        second = run_study(other)
+    assert second.parent != index.parent and second.parent.parent == index.parent.parent
+    assert index.is_file() and second.is_file()  # the first report is kept
+    assert "B = 500" in (second.parent / "report.md").read_text()
+    assert "B = 1,000" in (index.parent / "report.md").read_text()
+    listing = (reports / "index.html").read_text()
+    assert f"seven_tasks-smoke/{index.parent.name}/index.html" in listing
+    assert f"seven_tasks-smoke/{second.parent.name}/index.html" in listing
+    latest = (reports / "seven_tasks-smoke" / "index.html").read_text()
+    assert f'url={second.parent.name}/index.html"' in latest  # the stable link opens the latest run
+    assert run_study(cfg) == index  # the first run again: its own directory, rebuilt, not a third
 
 
 def judged_without_sac() -> set[str]:
@@ -103,5 +126,6 @@ def test_one_writer_per_table(smoke):
     cfg, index, _ = smoke
     outputs = Path(cfg.paths.outputs)
     assert not (outputs / "tables").exists()  # no second copy of Table 1 or the Welch matrices
-    assert sorted(p.name for p in outputs.rglob("table1*")) == ["table1.csv", "table1.md", "table1.tex"]
+    assert sorted(p.name for p in index.parent.rglob("table1*")) == ["table1.csv", "table1.md", "table1.tex"]
+    assert {p.parent.parent for p in outputs.rglob("table1.md")} <= {r.parent for r in outputs.glob("reports/*/*/run.json")}
     assert (index.parent / "tables" / "welch_pic.csv").is_file()

@@ -6,7 +6,7 @@
 Pulls (computes if missing) the RWG artefact each task needs, logs where each metrics artefact is, and
 prints the point estimates (one row per task, one column per metric). The study's tables (Table 1,
 intervals, Welch matrices) are the report's: ``python pipelines/study.py`` writes them once, under
-``<paths.outputs>/reports/<study>/tables/``.
+``<paths.outputs>/reports/<study>/<run id>/tables/``.
 """
 
 from __future__ import annotations

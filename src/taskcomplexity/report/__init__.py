@@ -27,6 +27,8 @@ methods
     The methods box: sampling, estimators, tests, directions, diagnostics, SAC and software, from the manifests.
 outcomes
     How each verdict outcome is shown: its mark, its colour class and its legend text.
+runs
+    Every report kept, one directory per run identity, and the index page that lists them.
 sac_summary
     The SAC summary table: mean ± sd across seeds per (task, variant).
 sections

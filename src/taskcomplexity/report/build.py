@@ -7,6 +7,7 @@ the SAC curves when there are any, and writes::
     out_dir/report.md           the same text in Markdown, figures linked
     out_dir/figures/*.png|pdf   every figure
     out_dir/tables/*.md|tex|csv every table, written once (and tidy CSVs of the verdict)
+    out_dir/summary.json        title, budget, headline: for the index (:mod:`taskcomplexity.report.runs`)
 
 The page reads like a results section: the verdict first (generated from the verdict artefact), then
 the methods box, the random-policy results, the empirical (SAC) order, the estimator diagnostics, the
@@ -33,6 +34,7 @@ from taskcomplexity.report.headline import headline
 from taskcomplexity.report.html import Document, write_html
 from taskcomplexity.report.markdown import render_markdown
 from taskcomplexity.report.methods import methods
+from taskcomplexity.report.runs import write_summary
 from taskcomplexity.report.writer import Writer
 from taskcomplexity.study_data import Study
 
@@ -159,4 +161,7 @@ def build_report(
     document = Document(title, subtitle, tuple(headline(data, alpha=alpha)), boxed,
                         methods(data, sac_curves, alpha=alpha), tuple(page_sections), banner=scale_banner(data))
     (writer.out_dir / "report.md").write_text(render_markdown(document), encoding="utf-8")
+    write_summary(writer.out_dir, title=title, headline=document.headline, tasks=len(data.tasks), policies=n,
+                  episodes=m, bins=int(data.results[data.tasks[0]].metrics.manifest.get("config", {}).get("bins", 0)),
+                  sac=sac_curves is not None)
     return write_html(document, writer.out_dir / "index.html")

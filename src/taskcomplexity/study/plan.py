@@ -54,7 +54,7 @@ class StudyPlan:
     name : str
         The run's name, ``<study.name>[-<tag>]``: its report's directory.
     outputs : pathlib.Path
-        ``paths.outputs``: reports go to ``<outputs>/reports/<name>/``.
+        ``paths.outputs``: reports go to ``<outputs>/reports/<name>/<run id>/``.
     title : str
         The report's title (``report.title``, else from the run's name).
     sac_command : str

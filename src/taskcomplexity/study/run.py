@@ -10,8 +10,10 @@ import time
 from pathlib import Path
 from typing import Any
 
+from taskcomplexity.cli import user_overrides
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report.build import build_report
+from taskcomplexity.report.runs import keep_run, run_directory
 from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.study.chain import study_artefacts
 from taskcomplexity.study.plan import StudyPlan, read_plan
@@ -30,7 +32,8 @@ def run_study(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> Path:
 def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, started: float | None = None) -> Path:
     """Compute or reuse every artefact of the study and write its report; return index.html.
 
-    The report goes to ``<paths.outputs>/reports/<study>[-<tag>]/``; a job of a multirun writes it into
+    The report goes to ``<paths.outputs>/reports/<study>[-<tag>]/<run id>/``, one directory per run identity, and
+    the index of every report is rebuilt (:mod:`taskcomplexity.report.runs`); a job of a multirun writes it into
     its own job directory instead (``<sweep dir>/<job>/report``, so the cells of a sweep do not overwrite
     one another) and records itself there for the sweep report (:mod:`taskcomplexity.report.sweep`).
     ``started``: when the run began (the time it prints counts from there; default: now).
@@ -39,7 +42,8 @@ def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, started:
     artefacts = study_artefacts(plan, registry=registry)
     name = artefacts.name
     job = plan.job_dir
-    out_dir = job / "report" if job is not None else plan.outputs / "reports" / name
+    reports = plan.outputs / "reports"
+    out_dir = job / "report" if job is not None else run_directory(reports, name, artefacts.verdict.key, plan.title)
     study, results = artefacts.study, artefacts.results
     ablation = None
     if study.kind == "variants":
@@ -58,6 +62,10 @@ def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, started:
         record = {"study": name, "overrides": list(plan.overrides), "labels": labels,
                   "verdict": str(artefacts.verdict.path.resolve()), "report": str(index.resolve())}
         (job / JOB_FILE).write_text(json.dumps(record, indent=1), encoding="utf-8")
+    else:
+        every = keep_run(out_dir, name=name, overrides=user_overrides(), verdict_key=artefacts.verdict.key)
     elapsed = time.time() - started
     print(f"\nStudy '{name}' finished in {elapsed:.0f} s.\nReport: {index.resolve()}", flush=True)
+    if job is None:
+        print(f"Every report: {every.resolve()}", flush=True)
     return index
