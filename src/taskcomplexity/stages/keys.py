@@ -12,10 +12,10 @@ numbers and the modules that compute them. The key holds the **version**, not th
 - The module names are not hashed either: moving a declared module (say into a package of its own) is a
   layout change, and re-keying on it would cost the same hours for the same numbers.
 - What guards the version is a **golden run** per stage (``tests/golden``): fixed tiny settings whose
-  artefact's numbers are hashed and committed with the version they were recorded at. When the numbers
-  change at the same version the test fails ("bump the version"); when the version moved it asks to
-  re-record. So a numbers change comes with a version bump (named in its commit), and everything else
-  (layout, logging, glue) changes no key.
+  artefact's values are recorded and committed with the version they were recorded at, and compared within a
+  stated tolerance. When the numbers change at the same version the test fails ("bump the version"); when the
+  version moved it asks to re-record. So a numbers change comes with a version bump (named in its commit),
+  and everything else (layout, logging, glue) changes no key.
 - The declared modules say where a change needs that thought: ``tests/stages/test_numerics.py`` checks
   that every module a stage reaches (stopping at the stages it reads through their keys) is either
   declared or listed there as glue that computes no number, and that every declared module exists.
