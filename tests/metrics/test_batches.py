@@ -93,6 +93,16 @@ def test_welch_test_of_constant_samples():
     assert np.isnan(statistic) and np.isnan(pvalue)
 
 
+def test_values_equal_up_to_rounding_are_a_constant_sample():
+    ceiling = [np.log(2), np.nextafter(np.log(2), 1), np.log(2)]  # a metric at ln 2 on every batch, one ulp apart
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        statistic, pvalue = welch_test(ceiling, ceiling[::-1])
+        assert np.isnan(statistic) and np.isnan(pvalue)  # not a t drawn from rounding
+        assert welch_test(ceiling, [0.5, 0.5]) == (np.inf, 0.0)
+        assert welch_test(ceiling, [0.1, 0.2, 0.3]).statistic > 0  # beside a varying sample: scipy's test, quietly
+
+
 def test_welch_test_needs_two_finite_values_per_sample():
     with pytest.raises(ValueError, match="b must be a 1-D array of at least 2 finite values"):
         welch_test([1.0, 2.0], [3.0])

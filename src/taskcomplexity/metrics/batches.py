@@ -44,14 +44,14 @@ def welch_test(a: object, b: object) -> WelchResult:
     WelchResult
         ``t = (mean a - mean b) / sqrt(var a / n_a + var b / n_b)`` (variances with ddof 1) and
         ``p = 2 · P(T > |t|)`` for Student's T with the Welch–Satterthwaite degrees of freedom.
-        When both samples are constant the test is undefined: t is ±inf with p = 0 if the means
-        differ, and t = p = NaN if they are equal (scipy's values, without its warning of a
-        catastrophic cancellation, which a constant sample does not suffer).
+        When both samples are constant (up to rounding: a metric at its ceiling on every batch) the
+        test is undefined: t is ±inf with p = 0 if the means differ beyond rounding, and t = p = NaN
+        if they do not (scipy's values on exactly constant samples).
     """
     a, b = _sample(a, "a"), _sample(b, "b")
     if _constant(a) and _constant(b):
-        difference = a[0] - b[0]
-        if difference == 0:
+        difference = a.mean() - b.mean()
+        if abs(difference) <= ROUNDING * max(abs(a.mean()), abs(b.mean())):
             return WelchResult(float("nan"), float("nan"))
         return WelchResult(float(np.copysign(np.inf, difference)), 0.0)
     result = _ttest(a, b)
@@ -161,19 +161,24 @@ def format_welch_matrix(tests: pd.DataFrame, *, digits: int = 3) -> pd.DataFrame
     return table.fillna("")
 
 
+ROUNDING = 10 * np.finfo(np.float64).eps
+"""Relative spread of a sample that is rounding only (scipy's own bound of a catastrophic cancellation)."""
+
+
 def _ttest(a: np.ndarray, b: np.ndarray):
     """scipy's Welch test of two samples, not both constant."""
     with warnings.catch_warnings():
         if _constant(a) or _constant(b):
-            # scipy warns of a catastrophic cancellation whenever a sample's spread is tiny beside its mean; a
-            # constant sample's variance is exactly 0, so the warning says nothing of it.
+            # scipy warns of a catastrophic cancellation when a sample's spread is rounding beside its mean; that
+            # sample's variance is 0 up to rounding, negligible beside the other's, which sets t.
             warnings.filterwarnings("ignore", message="Precision loss occurred", category=RuntimeWarning)
         return scipy.stats.ttest_ind(a, b, equal_var=False)
 
 
 def _constant(values: np.ndarray) -> bool:
-    """Whether every value equals the first (the sample's variance is 0)."""
-    return bool(np.all(values == values[0]))
+    """Whether the values are equal up to rounding (e.g. a metric at its ceiling, ln 2, computed on each batch)."""
+    centre = values.mean()
+    return bool(np.all(values == values[0]) or np.max(np.abs(values - centre)) <= ROUNDING * abs(centre))
 
 
 def _sample(values: object, name: str) -> np.ndarray:
