@@ -114,6 +114,18 @@ def test_the_installed_package_holds_its_configs_and_commands(venv, workdir):
             p.name for p in (ROOT / "src" / "taskcomplexity" / "conf" / group).glob("*.yaml")), group
 
 
+def test_the_installed_package_renders_the_report_page_from_its_templates(venv, workdir):
+    probe = ("import taskcomplexity.report.html as page; "
+             "print(page.render_html(page.Document('A & B', 'sub', ('Lead.',), (), (('N', '10'),))))")
+    result = _run(venv, workdir, "python", "-c", probe)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "<title>A &amp; B</title>" in result.stdout and "<dt>N</dt><dd>10</dd>" in result.stdout
+    module = _run(venv, workdir, "python", "-c", "import taskcomplexity; print(taskcomplexity.__file__)").stdout
+    installed = Path(module.strip()).parent / "report" / "templates"
+    assert sorted(p.name for p in installed.glob("*.j2")) == sorted(
+        p.name for p in (ROOT / "src" / "taskcomplexity" / "report" / "templates").glob("*.j2"))
+
+
 def test_an_unknown_option_is_refused_in_one_line_by_the_installed_command(venv, workdir):
     result = _run(venv, workdir, "taskcomplexity-rwg", "arm=three_link", timeout=120)
     assert result.returncode == 2
