@@ -18,14 +18,14 @@ import pytest
 import torch
 
 from taskcomplexity.cli import EXIT_DISK_FULL, one_line_errors
-from taskcomplexity.rl import CURVE_COLUMNS, SACSettings, train_sac
+from taskcomplexity.rl import CURVE_COLUMNS, WALL_CLOCK, SACSettings, train_sac
 from taskcomplexity.rl.checkpoint import checkpoint_path, load_checkpoint, save_checkpoint
 from taskcomplexity.tasks.spec import make_task
 
 TASK = make_task("one_link_1m0", "dense")
 TINY = SACSettings(total_steps=60, warmup_steps=20, eval_every=30, eval_episodes=1, checkpoint_every=30, seeds=(0,),
                    hidden_sizes=(16, 16))
-DETERMINISTIC = [c for c in CURVE_COLUMNS if c != "time/seconds"]
+DETERMINISTIC = [c for c in CURVE_COLUMNS if not c.startswith(WALL_CLOCK)]
 LOGGER = "taskcomplexity.rl.checkpoint"
 
 

@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 import torch
 
+from taskcomplexity.rl import WALL_CLOCK
 from taskcomplexity.rl.factories import _TaskObservation, make_actor_critic, make_env, make_loss, make_target_updater
 from taskcomplexity.rl.objective import SACObjective
 from taskcomplexity.tasks.spec import make_task
@@ -87,6 +88,6 @@ def test_training_with_the_direct_objective_gives_the_curves_of_training_with_sa
 
     monkeypatch.setattr(train, "make_objective", sacloss_objective)
     old = train_sac_seeds(task, settings, progress=False)
-    numbers = [c for c in new.columns if not c.startswith("time/")]
+    numbers = [c for c in new.columns if not c.startswith(WALL_CLOCK)]
     assert new["eval/return_mean"].nunique() > 2  # the curves move
     pd.testing.assert_frame_equal(new[numbers], old[numbers])

@@ -11,7 +11,7 @@ import logging
 import pandas as pd
 import pytest
 
-from taskcomplexity.rl import SACSettings, train_sac_seeds
+from taskcomplexity.rl import CURVE_COLUMNS, WALL_CLOCK, SACSettings, train_sac_seeds
 from taskcomplexity.rl.checkpoint import checkpoint_path
 from taskcomplexity.tasks.spec import make_task
 
@@ -28,9 +28,7 @@ SETTINGS = SACSettings(
     her=True,
 )
 TASK = make_task("one_link_1m0", "sparse")
-# every column but time/seconds
-DETERMINISTIC = ["task", "variant", "seed", "env_step", "eval/return_mean", "eval/return_std", "eval/success_rate",
-                 "train/episode_return"]
+DETERMINISTIC = [c for c in CURVE_COLUMNS if not c.startswith(WALL_CLOCK)]
 
 
 @pytest.fixture(scope="module")

@@ -145,3 +145,15 @@ def test_the_verdict_gathers_each_declared_stage_from_the_files_its_record_names
         assert (samples["metric"] == f"toy_{name}").sum() == 5 * len(TASKS), name
     with pytest.raises(ValueError, match="stages must be further stages of .*'primitives'.*got \\['rwg'\\]"):
         run_verdict_stage(cache, SEVEN_TASKS, metrics, stages={"rwg": artefacts["occupancy"]}, registry=registry)
+
+
+def test_the_sac_curves_key_is_their_numbers_not_their_wall_clock():
+    from taskcomplexity.rl import WALL_CLOCK
+    from taskcomplexity.stages.verdict_stage import curves_digest
+
+    curves = pd.DataFrame({"task": ["a", "a"], "env_step": [0, 10], "eval/return_mean": [-3.0, -1.5],
+                           f"{WALL_CLOCK}seconds": [0.4, 8.1]})
+    retrained = curves.assign(**{f"{WALL_CLOCK}seconds": [0.5, 9.7]})  # the same run again, on a busier machine
+    assert curves_digest(retrained) == curves_digest(curves)
+    assert curves_digest(curves.assign(**{"eval/return_mean": [-3.0, -1.25]})) != curves_digest(curves)
+    assert curves_digest(curves.rename(columns={"env_step": "step"})) != curves_digest(curves)

@@ -38,6 +38,11 @@ from taskcomplexity.rl.settings import (
     with_budget,
 )
 
+WALL_CLOCK = "time/"
+"""The prefix of the curve columns that hold wall-clock time (``time/seconds``): shown to the reader, never part of
+a cache key (:func:`taskcomplexity.stages.verdict_stage.curves_digest`) nor of a comparison of numbers, since two
+identical runs differ there."""
+
 _TRAINING = ("CURVE_COLUMNS", "train_sac", "train_sac_run", "train_sac_seeds")
 
 
@@ -53,6 +58,7 @@ def __getattr__(name: str):
 
 __all__ = [
     "CURVE_COLUMNS",
+    "WALL_CLOCK",
     "SACSettings",
     "has_goal_view",
     "protocol_variants",

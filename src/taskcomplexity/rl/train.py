@@ -59,6 +59,7 @@ from torchrl.objectives import SACLoss, SoftUpdate
 from tqdm.auto import tqdm
 
 from taskcomplexity.errors import ArtefactError, ConfigError
+from taskcomplexity.rl import WALL_CLOCK
 from taskcomplexity.rl.checkpoint import load_checkpoint, save_checkpoint
 from taskcomplexity.rl.collectors import Collector
 from taskcomplexity.rl.evaluation import evaluate
@@ -99,7 +100,7 @@ CURVE_COLUMNS = (
     "eval/return_std",
     "eval/success_rate",
     "train/episode_return",
-    "time/seconds",
+    f"{WALL_CLOCK}seconds",
 )
 CHECKPOINT_FORMAT = 1
 

@@ -47,6 +47,7 @@ import pandas as pd
 
 from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.rl import WALL_CLOCK
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.declared import STAGES, judged_stages
 from taskcomplexity.stages.diagnostics_stage import STAGE as DIAGNOSTICS
@@ -87,9 +88,12 @@ relations between the groups (:mod:`taskcomplexity.verdict.groups`)."""
 
 
 def curves_digest(curves: pd.DataFrame | None) -> str | None:
-    """Content hash of a SAC curve table (None without curves): the verdict's key of its SAC input."""
+    """Content hash of a SAC curve table (None without curves): the verdict's key of its SAC input. The wall-clock
+    columns (:data:`taskcomplexity.rl.WALL_CLOCK`) are left out: a retrained run with the same numbers keeps the
+    key."""
     if curves is None or curves.empty:
         return None
+    curves = curves[[c for c in curves.columns if not str(c).startswith(WALL_CLOCK)]]
     digest = hashlib.sha256(",".join(map(str, curves.columns)).encode())
     digest.update(pd.util.hash_pandas_object(curves, index=False).to_numpy().tobytes())
     return digest.hexdigest()[:16]
