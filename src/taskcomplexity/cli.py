@@ -89,6 +89,7 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
     """
     dirs = search_dirs(argv, conf_dir)
     groups = config_groups(conf_dir)
+    check_config_name(argv, dirs)
     check_output_paths(argv)
     for arg in argv[1:]:
         if arg.startswith("-") or "=" not in arg:
@@ -108,6 +109,45 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
     problem = unknown_keys(argv, dirs)
     if problem:
         fail(problem)
+
+
+CONFIG_FLAGS = {"--config-name": "name", "-cn": "name", "--config-path": "path", "-cp": "path",
+                "--config-dir": "dir", "-cd": "dir"}
+"""Hydra's flags that choose the primary config (its name, its directory) or add a directory to the search path."""
+
+
+def config_flags(argv: list[str]) -> dict[str, tuple[str, str]]:
+    """Hydra's config flags typed in ``argv`` (``--config-name=x``, ``--config-name x``, ``-cn x``): what each
+    chooses (``name``, ``path``, ``dir``) → (the flag as typed, its value)."""
+    found = {}
+    for i, arg in enumerate(argv[1:], start=1):
+        flag, equals, value = arg.partition("=")
+        if flag in CONFIG_FLAGS:
+            if not equals:
+                value = argv[i + 1] if i + 1 < len(argv) else ""
+            found[CONFIG_FLAGS[flag]] = (flag, value)
+    return found
+
+
+def check_config_name(argv: list[str], dirs: list[Path]) -> None:
+    """Refuse, in one line naming the configs allowed, a ``--config-name`` (``-cn``) that names no primary config:
+    a YAML file at the top of the packaged configs, of ``--config-path`` or of ``--config-dir``."""
+    flags = config_flags(argv)
+    if "name" not in flags:
+        return
+    flag, name = flags["name"]
+    roots = list(dirs)
+    for kind in ("path", "dir"):
+        if kind in flags:
+            given = flags[kind][1]
+            if "://" in given:  # a pkg:// or file:// source: Hydra resolves it, and reports a missing name itself
+                return
+            # --config-path is relative to the app's module (taskcomplexity.commands), --config-dir to the caller
+            root = Path(given)
+            roots.append(root if root.is_absolute() or kind == "dir" else Path(__file__).parent / "commands" / root)
+    allowed = sorted({p.stem for root in roots for p in root.glob("*.yaml")})
+    if name.removesuffix(".yaml") not in allowed:
+        fail(f"{flag}={name} is not a config (allowed: {', '.join(allowed)})")
 
 
 def check_output_paths(argv: list[str]) -> None:
@@ -193,10 +233,34 @@ def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
                 node = OmegaConf.select(base, parent) if parent else base
                 allowed = ", ".join(sorted(str(k) for k in node.keys()))
             except Exception:  # noqa: BLE001 - the message stays useful without the list
-                allowed = "see the config group's file"
+                base, allowed = None, "see the config group's file"
+            if full_key == "task.kwargs" or full_key.startswith("task.kwargs."):
+                typed = next((o.key_or_group for o in chosen if o.key_or_group.startswith(full_key)), full_key)
+                return task_kwargs_problem(typed, base)
             return f"{full_key} is not a known key (allowed: {allowed})"
         return " ".join(str(cause).split())
     return None
+
+
+def task_kwargs_problem(full_key: str, base) -> str:
+    """One line for a ``task.kwargs.<name>`` override that sets no key of the composed ``base`` config: the
+    reaching arms take no keyword arguments; a gymnasium task's env takes the ones its constructor names, each
+    added with ``+`` (:func:`~taskcomplexity.tasks.gym_task.keywords_taken`)."""
+    task = OmegaConf.select(base, "task") if base is not None else None
+    env_id = OmegaConf.select(task, "env_id") if task is not None else None
+    if task is None or task.get("kind") != "gym" or not env_id:
+        kind = task.get("kind") if task is not None else None
+        return (f"{full_key}: task={kind or 'reaching'} takes no keyword arguments (task.kwargs is a gymnasium "
+                "task's: task=gym task.env_id=<id> +task.kwargs.<name>=<value>; an arm's settings are arm.*, reward.*)")
+    from taskcomplexity.tasks.gym_task import env_keywords, keywords_taken
+
+    try:
+        names = env_keywords(str(env_id))
+    except TaskComplexityError as err:
+        return str(err)
+    if names is None or full_key.removeprefix("task.kwargs.") in names:
+        return f"{full_key}: a keyword argument of {env_id} is added to task.kwargs with '+': +{full_key}=<value>"
+    return f"{full_key}: {keywords_taken(str(env_id))}"
 
 
 def invalid_yaml(err: yaml.YAMLError) -> str:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import math
 import types
 import typing
 from collections.abc import Mapping, Sequence
@@ -18,6 +19,10 @@ from typing import Any, TypeVar
 from taskcomplexity.errors import ConfigError
 
 T = TypeVar("T")
+
+EXACT_FLOAT_INTEGER = 2**53
+"""The largest magnitude up to which a float (``1e6`` typed on the command line) holds every integer exactly: an
+integer setting accepts a whole float up to it, and refuses one beyond it (``1e99`` is not the integer typed)."""
 
 
 def setting(default: Any, *, result: bool = True) -> Any:
@@ -80,10 +85,12 @@ def _convert(value: Any, hint: Any, key: str) -> Any:
             raise ConfigError(f"{key} must be a number, got {value!r}")
         return float(value)
     if hint is int:
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
+        if isinstance(value, float) and value.is_integer() and abs(value) <= EXACT_FLOAT_INTEGER:
+            value = int(value)  # 1e6 typed for 1000000
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{key} must be an integer, got {value!r}")
+            beyond = isinstance(value, float) and math.isfinite(value) and abs(value) > EXACT_FLOAT_INTEGER
+            why = f" ({value:g} is beyond 2**53, where a number with an exponent is no exact integer)" if beyond else ""
+            raise ConfigError(f"{key} must be an integer, got {value!r}{why}")
         return value
     if hint is bool:
         if not isinstance(value, bool):

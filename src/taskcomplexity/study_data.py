@@ -270,6 +270,20 @@ class Study:
         return tuple(r for r in self.relations if r.easier in present and r.harder in present)
 
 
+PLAIN_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_.\-]*")
+"""A name that is one directory of its own: letters, digits, '_', '.', '-', not starting with '.' (so never ``.``,
+``..`` or a hidden directory)."""
+
+
+def plain_name(key: str, value: Any) -> str:
+    """``value`` if it is a plain name (:data:`PLAIN_NAME`: a study's name and a run's tag name directories under
+    ``paths.outputs``), else a ConfigError naming ``key``, the value and what is allowed."""
+    if not isinstance(value, str) or not PLAIN_NAME.fullmatch(value):
+        raise ConfigError(f"{key} must be a plain name of letters, digits, '_', '.', '-' that does not start with '.' "
+                          f"(it names a directory under paths.outputs), got {value!r}")
+    return value
+
+
 def study_from_config(node: Any) -> Study:
     """Build and check a :class:`Study` from its config as plain data (``cfg.study`` read into dicts and lists,
     :func:`taskcomplexity.study.plan.study_from`)."""
@@ -281,9 +295,7 @@ def study_from_config(node: Any) -> Study:
     unknown = sorted(set(node) - allowed)
     if unknown:
         raise ConfigError(f"study.{unknown[0]} is not a known key (allowed: {', '.join(sorted(allowed))})")
-    name = node.get("name")
-    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9_.\-]+", name):
-        raise ConfigError(f"study.name must be a name of letters, digits, '_', '.', '-', got {name!r}")
+    name = plain_name("study.name", node.get("name"))
     kind = node.get("kind") or "tasks"
     if kind not in KINDS:
         raise ConfigError(f"study.kind must be one of {list(KINDS)}, got {kind!r}")
@@ -481,7 +493,11 @@ def _relation(node: Any, i: int, ids: list[str]) -> Relation:
     _known(f"{where}.harder", node["harder"], ids)
     if node["easier"] == node["harder"]:
         raise ConfigError(f"{where} relates task {node['easier']} to itself")
-    return Relation(str(node["easier"]), str(node["harder"]), str(node.get("kind") or "known"))
+    kind = node.get("kind")
+    if not isinstance(kind, str) or not kind.strip():
+        raise ConfigError(f"{where}.kind must say why the relation is known (a non-empty string, e.g. reward or "
+                          f"degrees_of_freedom: the verdict's tables group relations by it), got {kind!r}")
+    return Relation(str(node["easier"]), str(node["harder"]), kind)
 
 
 def _refuse_cycles(relations: tuple[Relation, ...]) -> None:

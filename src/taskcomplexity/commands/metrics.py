@@ -15,11 +15,11 @@ import logging
 
 from omegaconf import DictConfig
 
-from taskcomplexity.cli import one_line_errors
+from taskcomplexity.cli import one_line_errors, user_overrides
 from taskcomplexity.commands import entry_point
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
-from taskcomplexity.stages.metrics_stage import STAGE
+from taskcomplexity.stages.metrics_stage import RECORD, STAGE
 from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
 from taskcomplexity.study.plan import (
     cache_from_config,
@@ -40,12 +40,13 @@ def run(cfg: DictConfig):
     scope = cfg.metrics.get("scope", "study")
     if scope not in ("study", "task"):
         raise ConfigError(f"metrics.scope must be one of ['study', 'task'], got {scope!r}")
+    settings = metrics_settings_from_config(cfg)
     if scope == "study":
         entries, requests = zip(*study_requests(cfg), strict=True)
         names = [entry.id for entry in entries]
     else:
         names, requests = None, [rwg_request_from_config(cfg, task_from_config(cfg))]
-    settings = metrics_settings_from_config(cfg)
+    RECORD.check(settings, None, requests, user_overrides())  # against every task's N and M, before any work
     cache = cache_from_config(cfg)
     results = study_metrics(
         cache, list(requests), settings, names=list(names) if names else None, force=bool(cfg.force), progress=True

@@ -32,7 +32,7 @@ from taskcomplexity.rwg.env_checks import EnvContractError, check_env
 from taskcomplexity.rwg.envpool_backend import simulator as backend_simulator
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans, waiting_lock
 from taskcomplexity.stages.keys import Numerics, stage_key
-from taskcomplexity.stages.resources import human_bytes, refuse_beyond_memory
+from taskcomplexity.stages.resources import refuse_beyond_disk, refuse_beyond_memory
 from taskcomplexity.stages.stage import Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
 from taskcomplexity.tasks.base import Task
@@ -238,19 +238,43 @@ BYTES_IN_MEMORY_PER_EPISODE = 64
 """Peak resident bytes per episode while a shard is merged into the tidy table (arrays + frame + writer)."""
 BYTES_ON_DISK_PER_EPISODE = 48
 """Peak disk use per episode: saved chunks and the shard file (17 B each, uncompressed) and the parquet artefact."""
+STEPPED_AT_ONCE = ("batched", "kernel")
+"""The backends that step a chunk's P × M episodes at once, each holding its working memory
+(:meth:`~taskcomplexity.policies.families.FamilySpec.working_floats`); the others keep a bounded number of
+environments in flight whatever the chunk."""
+
+
+def check_memory(request: RWGRequest) -> None:
+    """Refuse, before any work, a run whose memory need is beyond this machine, with the estimate: its tidy table,
+    and one chunk's working memory on the backends that step a chunk's P × M episodes at once (``batched``,
+    ``kernel``), which an explicit ``rwg.chunk_policies`` sets instead of ``rwg.chunk_memory_mb``."""
+    from taskcomplexity.rwg.chunking import chunk_size
+
+    settings = request.settings
+    episodes = settings.policies * settings.episodes
+    what = f"rwg.policies × rwg.episodes = {settings.policies:,} × {settings.episodes:,}"
+    refuse_beyond_memory(episodes * BYTES_IN_MEMORY_PER_EPISODE, what, "lower N or M")
+    if request.backend not in STEPPED_AT_ONCE:
+        return
+    start, stop = settings.shard_range()
+    policies = min(chunk_size(request.task, request.network, settings, request.backend), stop - start)
+    task = request.task
+    need = policies * settings.episodes * 8 * request.network.working_floats(task.observation_size,
+                                                                             task.action_size, task.max_steps)
+    key = (f"rwg.chunk_policies={settings.chunk_policies}" if settings.chunk_policies
+           else f"rwg.chunk_memory_mb={settings.chunk_memory_mb}")
+    what = (f"{key} ({policies:,} policies × {settings.episodes:,} episodes stepped at once on the {request.backend} "
+            "backend)")
+    advice = "lower it" + (", or 0: chunks sized from rwg.chunk_memory_mb" if settings.chunk_policies else "")
+    refuse_beyond_memory(need, what, advice)
 
 
 def check_plan(cache: Cache, request: RWGRequest) -> None:
     """Refuse, before any work, a run whose memory or disk need is beyond this machine, with the estimate."""
+    check_memory(request)
     episodes = request.settings.policies * request.settings.episodes
     what = f"rwg.policies × rwg.episodes = {request.settings.policies:,} × {request.settings.episodes:,}"
-    refuse_beyond_memory(episodes * BYTES_IN_MEMORY_PER_EPISODE, what, "lower N or M")
-    cache.root.mkdir(parents=True, exist_ok=True)
-    disk = episodes * BYTES_ON_DISK_PER_EPISODE
-    free = shutil.disk_usage(cache.root).free
-    if disk > free:
-        raise ConfigError(f"{what} needs about {human_bytes(disk)} of disk under {cache.root}, {human_bytes(free)} "
-                          "are free")
+    refuse_beyond_disk(episodes * BYTES_ON_DISK_PER_EPISODE, what, cache.root)
 
 
 def _compute_shards(cache: Cache, request: RWGRequest, scratch: Path, *, force: bool, progress: Progress,
@@ -390,5 +414,10 @@ def _returns(work: StudyWork) -> dict:
     return study_returns(plan.cache, plan.tasks, force=plan.force, progress=work.progress)
 
 
-RECORD = Stage(STAGE, NUMERICS, (RETURNS,), _returns, group="rwg", settings=RWGSettings, order=10)
+def _check_rwg(settings: RWGSettings, study, requests, typed) -> None:
+    for request in requests:
+        check_memory(request)
+
+
+RECORD = Stage(STAGE, NUMERICS, (RETURNS,), _returns, group="rwg", settings=RWGSettings, check=_check_rwg, order=10)
 """The RWG stage's record (:class:`~taskcomplexity.stages.stage.Stage`): the first of a study's chain."""

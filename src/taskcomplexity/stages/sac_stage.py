@@ -12,6 +12,7 @@ task's budget only.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import shutil
@@ -35,6 +36,7 @@ from taskcomplexity.rl.settings import (
 )
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
+from taskcomplexity.stages.resources import mlp_parameters, refuse_beyond_disk, refuse_beyond_memory, sac_needs
 from taskcomplexity.stages.stage import SEEDS, Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import outcome
 
@@ -79,6 +81,30 @@ def run_key(entry, task, variant) -> str:
     return stage_key(STAGE, NUMERICS, sac_identity(task, variant, solved_return=entry.solved_return))
 
 
+def check_resources(task, settings, cache: Cache | None = None) -> None:
+    """Refuse, before anything is allocated or written, a SAC run (``settings`` with its budget) whose memory, or
+    with ``cache`` whose disk under it, is beyond this machine, naming the setting that needs most of it
+    (:func:`~taskcomplexity.stages.resources.sac_needs`)."""
+    if settings.total_steps is None:
+        return
+    hidden = tuple(settings.hidden_sizes)
+    seeds = len(settings.seeds)
+    transitions = min(settings.buffer_size, settings.total_steps)
+    memory, disk = sac_needs(task.observation_size, task.action_size, hidden, seeds=seeds, transitions=transitions,
+                             snapshots=settings.total_steps // settings.checkpoint_every + 2)
+    parameters = sum(mlp_parameters(task.observation_size + extra, hidden, out)
+                     for extra, out in ((0, 2 * task.action_size), (task.action_size, 1), (task.action_size, 1)))
+    if parameters >= transitions * (2 * task.observation_size + task.action_size + 4):
+        what = (f"sac.hidden_sizes={list(hidden)} ({parameters:,} parameters per seed × {seeds} seeds on task "
+                f"{task.task_id})")
+    else:
+        what = (f"sac.buffer_size={settings.buffer_size} ({transitions:,} transitions per seed × {seeds} seeds on task "
+                f"{task.task_id})")
+    refuse_beyond_memory(memory, what, "lower it")
+    if cache is not None:
+        refuse_beyond_disk(disk, what, cache.root)
+
+
 def run_sac_stage(
     cache: Cache,
     task,
@@ -101,18 +127,25 @@ def run_sac_stage(
 
     identity = sac_identity(task, settings, solved_return=solved_return)
     key = stage_key(STAGE, NUMERICS, identity)
-    if cached_only:
+    if cached_only or not force:
         found = cache.lookup(STAGE, key, config=identity)
-        return found, found is not None
+        if cached_only or found is not None:
+            return found, found is not None
+    check_resources(task, settings, cache)  # what is to be trained, before anything is allocated or written
     variant = settings.variant
 
     def write(directory) -> dict:
         scratch = cache.scratch(STAGE, key)
         meter = JobMeter(variant)
-        curves, actors = train_sac_run(
-            task, settings, checkpoint_dir=scratch, progress=progress, solved_return=solved_return,
-            bar_position=bar_position,
-        )
+        try:
+            curves, actors = train_sac_run(
+                task, settings, checkpoint_dir=scratch, progress=progress, solved_return=solved_return,
+                bar_position=bar_position,
+            )
+        except BaseException:  # a run that saved no checkpoint leaves no scratch directory behind
+            with contextlib.suppress(OSError):
+                scratch.rmdir()
+            raise
         curves.to_parquet(directory / CURVES, index=False)
         if actors is not None:
             actors.save(directory / ACTORS_FILE)
@@ -355,7 +388,8 @@ def _check_sac(settings: SACSettings, study, requests, typed: list[str]) -> None
         return
     for entry, request in zip(study.tasks, requests, strict=True):
         if sac_skip_reason(request.task) is None:
-            with_budget(settings, entry.sac_steps, task_id=entry.id)
+            budgeted = with_budget(settings, entry.sac_steps, task_id=entry.id)
+            check_resources(request.task, budgeted)
     if settings.backend == "batched" and not any(env_backend(r.task, settings) == "batched" for r in requests):
         raise ConfigError(f"sac.backend=batched steps the environments of contact-free reaching arms, and study "
                           f"{study.name} has none (its tasks keep their own environments): drop it")

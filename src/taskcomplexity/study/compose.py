@@ -182,6 +182,22 @@ def study_scale(settings, study, typed: list[str]) -> dict[str, int]:
     return scale
 
 
+def group_options(group: str) -> list[str]:
+    """The options of config group ``group``: the packaged ones and those of the search path's directories."""
+    return sorted({p.stem for d in search_dirs(sys.argv) for p in (d / group).glob("*.yaml")})
+
+
+def check_presets(study: Study) -> None:
+    """Refuse, in one line naming the study, the entry and the presets allowed, an entry that chooses a preset
+    (``task``, ``arm``, ``reward``, ``prior``, ``network``) no config file holds, before Hydra composes it."""
+    for i, entry in enumerate(study.tasks):
+        for group in TASK_GROUPS:
+            option = entry.selection.get(group)
+            if option is not None and str(option) not in group_options(group):
+                raise ConfigError(f"study {study.name}: study.tasks[{i}] ({entry.id}) names {group}={option}, which is "
+                                  f"not a {group} preset (allowed: {', '.join(group_options(group))})")
+
+
 def entry_requests(study: Study, settings, config: Mapping[str, Any], typed: list[str]
                    ) -> list[tuple[StudyTask, RWGRequest]]:
     """(StudyTask, RWGRequest) for every entry of the study, in study order.
@@ -199,11 +215,11 @@ def entry_requests(study: Study, settings, config: Mapping[str, Any], typed: lis
         settings = dataclasses.replace(settings, **overrides)
         settings.validate()
     family = study_family(study, typed)
-    dirs = search_dirs(sys.argv)
     for group, option in family.items():
-        allowed = sorted({p.stem for d in dirs for p in (d / group).glob("*.yaml")})
-        if option not in allowed:
-            raise ConfigError(f"study.{group}={option} is not a known {group} option (allowed: {', '.join(allowed)})")
+        if option not in group_options(group):
+            raise ConfigError(f"study.{group}={option} is not a known {group} option (allowed: "
+                              f"{', '.join(group_options(group))})")
+    check_presets(study)
     out = []
     for i, entry in enumerate(study.tasks):
         node = entry_config(base, entry, typed, f"study.tasks[{i}]", family)

@@ -30,8 +30,8 @@ from taskcomplexity.stages.declared import STAGES, check_registry
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.stages.rwg_stage import STAGE as RWG
 from taskcomplexity.stages.rwg_stage import RWGRequest
-from taskcomplexity.study.compose import entry_requests, request_of
-from taskcomplexity.study_data import Study, StudyTask, study_from_config
+from taskcomplexity.study.compose import check_presets, entry_requests, request_of
+from taskcomplexity.study_data import Study, StudyTask, plain_name, study_from_config
 from taskcomplexity.tasks.from_config import task_from_config
 
 
@@ -132,8 +132,11 @@ def report_title(node: Any, name: str) -> str:
 
 
 def study_from(cfg: Any) -> Study:
-    """The :class:`~taskcomplexity.study_data.Study` of a composed config (``cfg.study``)."""
-    return study_from_config(plain(cfg.study))
+    """The :class:`~taskcomplexity.study_data.Study` of a composed config (``cfg.study``), each entry's presets
+    checked (:func:`~taskcomplexity.study.compose.check_presets`)."""
+    study = study_from_config(plain(cfg.study))
+    check_presets(study)
+    return study
 
 
 def metrics_settings_from_config(cfg: Any, study: Study | None = None) -> MetricsSettings:
@@ -143,9 +146,15 @@ def metrics_settings_from_config(cfg: Any, study: Study | None = None) -> Metric
 
 
 def run_name(cfg: Any) -> str:
-    """Directory name of a study's tables and report: ``<study.name>-<tag>`` (e.g. seven_tasks-quick)."""
+    """Directory name of a study's tables and report: ``<study.name>-<tag>`` (e.g. seven_tasks-quick); both are
+    plain names (:func:`~taskcomplexity.study_data.plain_name`), so the report stays under ``paths.outputs``."""
+    name = plain_name("study.name", cfg["study"]["name"])
     tag = cfg.get("tag")
-    return f"{cfg['study']['name']}-{tag}" if tag else str(cfg["study"]["name"])
+    if tag is None or tag == "":
+        return name
+    if isinstance(tag, int) and not isinstance(tag, bool):  # tag=2 is read as a number
+        tag = str(tag)
+    return f"{name}-{plain_name('tag', tag)}"
 
 
 def cache_from_config(cfg: Any) -> Cache:

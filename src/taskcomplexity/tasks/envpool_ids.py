@@ -7,7 +7,9 @@ import functools
 import importlib.util
 import re
 
-ENVPOOL_EXTRA = "pip install -e '.[envpool]'"
+from taskcomplexity.extras import install_command
+
+ENVPOOL_EXTRA = install_command("envpool")
 
 
 def installed() -> bool:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import contextlib
 import difflib
 import functools
-import hashlib
 import importlib
 import importlib.util
 import inspect
@@ -24,12 +23,14 @@ from typing import Any
 import gymnasium
 
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.extras import install_command
 from taskcomplexity.tasks.base import check_space, flat_size
+from taskcomplexity.tasks.source import source_digest
 
 log = logging.getLogger(__name__)
 
-MUJOCO_EXTRA = "pip install -e '.[mujoco]'"
-EXTRAS = {"shimmy": "pip install -e '.[dmc]'"}
+MUJOCO_EXTRA = install_command("mujoco")
+EXTRAS = {"shimmy": install_command("dmc")}
 """Modules of an id's ``module:`` prefix that an optional extra installs → the command that installs it (DM Control's
 tasks are ``shimmy:dm_control/<domain>-<task>-v0``)."""
 
@@ -171,6 +172,10 @@ class GymTask:
         except TypeError as err:
             if "argument" not in str(err):
                 raise
+            unknown = [name for name in self.kwargs if name not in (env_keywords(self.env_id) or (name,))]
+            if unknown:
+                raise ConfigError(f"task.kwargs.{unknown[0]}={self.kwargs[unknown[0]]!r}: "
+                                  f"{keywords_taken(self.env_id)}") from err
             raise ConfigError(f"task.kwargs={dict(self.kwargs)} are not accepted by {self.env_id}: {err}") from err
 
     def validate(self) -> GymTask:
@@ -180,6 +185,33 @@ class GymTask:
         return self
 
 
+def env_keywords(env_id: str) -> tuple[str, ...] | None:
+    """The keyword arguments the env of ``env_id`` takes (``task.kwargs``; what its registration passes included),
+    or None when its constructor takes any (``**kwargs``)."""
+    spec = _find_spec(env_id)
+    creator = spec.entry_point
+    if isinstance(creator, str):
+        creator = gymnasium.envs.registration.load_env_creator(creator)
+    try:
+        parameters = inspect.signature(creator).parameters.values()
+    except (TypeError, ValueError):  # a builtin or C extension without a signature
+        return None
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+        return None
+    return tuple(sorted(p.name for p in parameters if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                                                  inspect.Parameter.KEYWORD_ONLY)))
+
+
+def keywords_taken(env_id: str) -> str:
+    """What ``task.kwargs`` the env of ``env_id`` takes, in words: none, or the names allowed."""
+    names = env_keywords(env_id)
+    if names is None:
+        return f"{env_id} takes any keyword argument"
+    if not names:
+        return f"{env_id} takes no keyword arguments"
+    return f"{env_id} takes no such keyword argument (allowed: {', '.join(names)})"
+
+
 def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
     module, _, name = env_id.rpartition(":")
     if module:
@@ -187,7 +219,8 @@ def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
             importlib.import_module(module)
         except ModuleNotFoundError as err:
             if module in EXTRAS:
-                raise ConfigError(f"task.env_id={env_id} needs {module}, which is not installed: "
+                why = _missing(err, module)
+                raise ConfigError(f"task.env_id={env_id} needs {module}, which is not installed{why}: "
                                   f"{EXTRAS[module]}") from err
             raise ConfigError(f"task.env_id={env_id}: cannot import module {module!r} ({err})") from err
     else:
@@ -198,12 +231,22 @@ def _find_spec(env_id: str) -> gymnasium.envs.registration.EnvSpec:
         raise ConfigError(f"task.env_id={env_id} is not a registered gymnasium id{hint}")
     spec = gymnasium.spec(name)
     entry = spec.entry_point if isinstance(spec.entry_point, str) else ""
-    if "mujoco" in entry:
+    if "mujoco" in entry:  # the env's module and what it imports: MuJoCo, and gymnasium's renderer (imageio, glfw)
         try:
-            importlib.import_module("mujoco")
-        except ImportError as err:
-            raise ConfigError(f"task.env_id={env_id} needs MuJoCo, which is not installed: {MUJOCO_EXTRA}") from err
+            importlib.import_module(entry.partition(":")[0])
+        except (ImportError, gymnasium.error.DependencyNotInstalled) as err:
+            raise ConfigError(f"task.env_id={env_id} needs MuJoCo, which is not installed{_missing(err)}: "
+                              f"{MUJOCO_EXTRA}") from err
     return spec
+
+
+def _missing(err: BaseException, needed: str = "mujoco") -> str:
+    """`` (no module <name>)`` for the module whose import failed under ``err`` (or its cause) when it is not
+    ``needed`` itself (the extra's own module, which the line names already), else ``""``."""
+    while err is not None and not isinstance(err, ImportError):
+        err = err.__cause__
+    name = getattr(err, "name", None)
+    return f" (no module {name})" if name and name.partition(".")[0] != needed else ""
 
 
 def _is_dm_control(env_id: str, spec: gymnasium.envs.registration.EnvSpec) -> bool:
@@ -243,14 +286,13 @@ def _route_mujoco_warnings(*, dm_control: bool) -> None:
 
 
 def _source_digest(spec: gymnasium.envs.registration.EnvSpec) -> str:
-    """SHA-256 (16 hex digits) of the file that defines the env's entry point ("" when there is none)."""
+    """The digest of the env's source (:func:`taskcomplexity.tasks.source.source_digest`): the file that defines its
+    entry point and the researcher's own modules it imports ("" when there is no file)."""
     entry = spec.entry_point
     try:
         if isinstance(entry, str):
-            origin = importlib.util.find_spec(entry.partition(":")[0]).origin
-        else:
-            origin = inspect.getsourcefile(entry)
-        return hashlib.sha256(Path(origin).read_bytes()).hexdigest()[:16]
+            return source_digest(entry.partition(":")[0])
+        return source_digest(getattr(entry, "__module__", None), Path(inspect.getsourcefile(entry)))
     except (TypeError, AttributeError, OSError, ImportError, ValueError):
         return ""
 

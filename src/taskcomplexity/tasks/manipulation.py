@@ -30,8 +30,9 @@ import numpy as np
 from gymnasium.utils import seeding
 
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.extras import install_command
 
-METAWORLD_EXTRA = "pip install -e '.[metaworld]'"
+METAWORLD_EXTRA = install_command("metaworld")
 REWARDS = ("dense", "sparse")
 EPISODE_STEPS = 500
 """Meta-World's ``max_path_length``: every episode is this long."""
