@@ -3,7 +3,7 @@
 ``VectorPendulum-v0`` registers gymnasium's own ``PendulumEnv`` as its single env and :class:`VectorPendulum` as its
 vector env, which does the single env's arithmetic on arrays and seeds environment i from ``seed[i]`` as the single
 env seeds itself; ``VectorPendulumOneSeed-v0`` draws every environment's start from one generator, as gymnasium's own
-classic-control vector envs do.
+classic-control vector envs do; ``VectorPendulumNoisy-v0`` adds unseeded noise after step 30.
 """
 
 from __future__ import annotations
@@ -73,7 +73,19 @@ class VectorPendulumOneSeed(VectorPendulum):
         return self._observe(), {}
 
 
+class VectorPendulumNoisy(VectorPendulum):
+    """Adds noise from NumPy's global generator to the torque after step 30: not fixed by the seeds of its reset."""
+
+    def step(self, actions):
+        actions = np.asarray(actions, dtype=np.float64).copy()
+        late = self.elapsed >= 30
+        actions[late, 0] += 0.1 * np.random.normal(size=int(late.sum()))  # noqa: NPY002 - unseeded on purpose
+        return super().step(actions)
+
+
 register("VectorPendulum-v0", entry_point="gymnasium.envs.classic_control.pendulum:PendulumEnv",
          vector_entry_point="vector_pendulum:VectorPendulum", max_episode_steps=200)
 register("VectorPendulumOneSeed-v0", entry_point="gymnasium.envs.classic_control.pendulum:PendulumEnv",
          vector_entry_point="vector_pendulum:VectorPendulumOneSeed", max_episode_steps=200)
+register("VectorPendulumNoisy-v0", entry_point="gymnasium.envs.classic_control.pendulum:PendulumEnv",
+         vector_entry_point="vector_pendulum:VectorPendulumNoisy", max_episode_steps=200)

@@ -142,6 +142,16 @@ PACKAGE = textwrap.dedent('''
             return super().step(action)
 
 
+    class LateGlobalRandom(Line):
+        """Seeded for 30 steps, then kicked with NumPy's global generator: only a whole episode shows it."""
+
+        def step(self, action):
+            if self.t >= 30:
+                self.x += 0.01 * np.random.normal()
+            return super().step(action)
+
+
+    gymnasium.register("LabLateGlobalRandom-v0", entry_point=LateGlobalRandom, max_episode_steps=50)
     for name, cls in [("Line", Line), ("NanReward", NanReward), ("Unseeded", Unseeded),
                       ("WrongShape", WrongShape), ("LateWrongShape", LateWrongShape), ("Boom", Boom),
                       ("EarlyBoom", EarlyBoom), ("ArrayReward", ArrayReward), ("PairReward", PairReward),
@@ -326,6 +336,13 @@ def test_an_env_drawing_global_random_numbers_in_step_is_refused_as_not_reproduc
                     f"episode reset with seed {check_seed()}, with the same actions, gave a different observation at "
                     f"step 1 (does the env draw random numbers outside its seeded generator self.np_random, or keep "
                     f"state its reset does not restore?), so the cache cannot serve its returns")
+    assert leftovers(lab) == []
+
+
+def test_an_env_drawing_global_random_numbers_late_in_its_episodes_is_refused(lab):
+    line = refusal(rwg(lab, "LateGlobalRandom"))
+    assert (f"two replays of the episode reset with seed {check_seed()}, with the same actions, gave a different "
+            "observation at step 31") in line
     assert leftovers(lab) == []
 
 

@@ -49,3 +49,20 @@ def test_episodes_that_end_early_are_read_until_their_end_only():
     theirs = run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=3, episodes=4, seed=1), "gym")
     assert (ours.steps == 7).all()
     np.testing.assert_allclose(ours.returns, theirs.returns, rtol=RTOL)
+
+
+def test_a_vector_env_with_unseeded_noise_late_in_its_episodes_is_refused_before_any_return(tmp_path):
+    from taskcomplexity.rwg.env_checks import EnvContractError, check_vector_env
+    from taskcomplexity.seeding import episode_reset_seeds
+    from taskcomplexity.stages.cache import Cache
+    from taskcomplexity.stages.rwg_stage import RWGRequest, run_rwg_stage
+
+    check_vector_env(GymTask(VECTOR), 0)  # a vector env its seeds fix passes
+    seed = int(episode_reset_seeds(0, np.array([0]), np.array([0]))[0])
+    noisy = GymTask("vector_pendulum:VectorPendulumNoisy-v0")
+    assert noisy.backends[0] == "vector"
+    request = RWGRequest(noisy, NetworkSpec(), PriorSpec(), RWGSettings(policies=4, episodes=2), backend="vector")
+    with pytest.raises(EnvContractError, match=rf"is not reproducible on backend=vector: two replays of the episode "
+                       rf"reset with seed {seed}, with the same actions, gave a different observation at step 31 "):
+        run_rwg_stage(Cache(tmp_path / "cache"), request)
+    assert not list((tmp_path / "cache").rglob("*.parquet"))

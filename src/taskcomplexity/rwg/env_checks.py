@@ -27,9 +27,9 @@ from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
 log = logging.getLogger(__name__)
 
 CHECK_EPISODES = 2
-"""Episodes the check of steps replays: policy 0's first ones, reset with the run's seeds."""
-CHECK_STEPS = 20
-"""Steps of each replayed episode at most (fewer when it ends sooner or the task's limit is shorter)."""
+"""Episodes the check of steps replays, each whole (to its end or the task's step limit) and twice with the same
+actions: policy 0's first ones, reset with the run's seeds. The check samples these 2 of the N × M episodes: an
+unseeded draw that every episode makes, at any step, is found; one that only rare episodes make may not be."""
 SCALAR_KINDS = "biuf"
 """NumPy dtype kinds of a reward: bool, signed and unsigned integer, float."""
 
@@ -189,8 +189,7 @@ def replay(task: Task, env: gymnasium.Env, seed: int) -> list[tuple[int, list[di
     """The check episodes under fixed actions: per episode its reset seed and one record per step (step 0:
     the reset observation; step k: the observation, reward and end flags ``env.step`` returned)."""
     reset_seeds = episode_reset_seeds(seed, np.zeros(CHECK_EPISODES, dtype=np.int64), np.arange(CHECK_EPISODES))
-    length = min(CHECK_STEPS, task.max_steps)
-    outputs = np.random.default_rng(seed).uniform(-1.0, 1.0, (CHECK_EPISODES, length, task.action_size))
+    outputs = check_outputs(task, seed)
     episodes = []
     for reset_seed, episode_outputs in zip(reset_seeds.tolist(), outputs, strict=True):
         records = [{"observation": np.array(reset_env(task, env, reset_seed))}]
@@ -203,6 +202,58 @@ def replay(task: Task, env: gymnasium.Env, seed: int) -> list[tuple[int, list[di
                 break
         episodes.append((reset_seed, records))
     return episodes
+
+
+def check_outputs(task: Task, seed: int) -> np.ndarray:
+    """The fixed policy outputs of the check episodes, (CHECK_EPISODES, task.max_steps, action size) in [-1, 1]."""
+    return np.random.default_rng(seed).uniform(-1.0, 1.0, (CHECK_EPISODES, task.max_steps, task.action_size))
+
+
+def check_vector_env(task: Task, seed: int) -> None:
+    """The ``vector`` backend's check of a researcher's vector env, before any return is computed: the check
+    episodes (:data:`CHECK_EPISODES`, whole) replayed twice, side by side in one vector env, give exactly the same
+    observations, rewards and end flags (:func:`replay_vector`); else its steps draw random numbers its seeds do
+    not fix."""
+    from taskcomplexity.tasks.vectorised import make_vector
+
+    env = make_vector(task, CHECK_EPISODES)
+    try:
+        first, again = replay_vector(task, env, seed), replay_vector(task, env, seed)
+    finally:
+        env.close()
+    for (reset_seed, one), (_, other) in zip(first, again, strict=True):
+        difference = first_difference(one, other)
+        if difference is not None:
+            step, what = difference
+            at = "at reset" if step == 0 else f"at step {step}"
+            raise EnvContractError(
+                f"task.env_id={task.env_id} is not reproducible on backend=vector: two replays of the episode reset "
+                f"with seed {reset_seed}, with the same actions, gave a different {what} {at} (does the vector env "
+                f"draw random numbers outside the generators its reset(seed=[…]) seeds?), so the cache cannot serve "
+                f"its returns")
+
+
+def replay_vector(task: Task, env, seed: int) -> list[tuple[int, list[dict]]]:
+    """:func:`replay` on a vector env of :data:`CHECK_EPISODES` environments, one check episode each, stepped
+    together; an environment's records end with its episode."""
+    reset_seeds = episode_reset_seeds(seed, np.zeros(CHECK_EPISODES, dtype=np.int64), np.arange(CHECK_EPISODES))
+    outputs = check_outputs(task, seed)
+    observations, _ = env.reset(seed=[int(s) for s in reset_seeds])
+    records = [[{"observation": np.array(o)}] for o in observations]
+    running = np.ones(CHECK_EPISODES, dtype=bool)
+    for step in range(1, task.max_steps + 1):
+        actions = decode_actions(task.action_space, outputs[:, step - 1])
+        observations, rewards, terminated, truncated, _ = env.step(actions)
+        for i in np.flatnonzero(running):
+            where = f"step {step} after reset(seed={int(reset_seeds[i])}) of the env check before RWG"
+            records[i].append({"observation": np.array(observations[i]),
+                               "reward": reward_value(task, np.asarray(rewards)[i], where),
+                               "terminated flag": bool(np.asarray(terminated)[i]),
+                               "truncated flag": bool(np.asarray(truncated)[i])})
+        running &= ~(np.asarray(terminated, dtype=bool) | np.asarray(truncated, dtype=bool))
+        if not running.any():
+            break
+    return list(zip(reset_seeds.tolist(), records, strict=True))
 
 
 def first_difference(one: list[dict], other: list[dict]) -> tuple[int, str] | None:
@@ -222,3 +273,7 @@ def same(a, b) -> bool:
     if a.shape != b.shape or a.dtype != b.dtype:
         return False
     return bool(np.array_equal(a, b, equal_nan=a.dtype.kind in "fc"))
+
+
+ENV_CHECKS = {"gym": check_env, "vector": check_vector_env}
+"""The check each backend that runs a researcher's own env code makes before any return is computed."""

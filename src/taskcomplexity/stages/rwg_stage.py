@@ -28,7 +28,7 @@ from taskcomplexity.policies.families import FamilySpec
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.progress import Progress
 from taskcomplexity.rwg import AUTO, ReturnChunk, RWGSettings, resolve_backend, run_rwg
-from taskcomplexity.rwg.env_checks import EnvContractError, check_env
+from taskcomplexity.rwg.env_checks import ENV_CHECKS, EnvContractError
 from taskcomplexity.rwg.envpool_backend import simulator as backend_simulator
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans, waiting_lock
 from taskcomplexity.stages.keys import Numerics, stage_key
@@ -336,8 +336,9 @@ def run_rwg_stage(
         log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
         return found, True
     cache.require_writable(STAGE, key)
-    if request.backend == "gym":
-        check_env(request.task, request.settings.seed)  # before anything is created under the cache
+    check = ENV_CHECKS.get(request.backend)  # the backends that run a researcher's own env code
+    if check is not None:
+        check(request.task, request.settings.seed)  # before anything is created under the cache
     check_plan(cache, request)
     started = time.time()
     shards = request.settings.shards

@@ -38,6 +38,8 @@ rewards
     The reward kinds: declared once, computed by one scalar function.
 rollout_kernel
     RWG's episodes as one fused numba kernel: each policy's forward pass, then the step kernel's step.
+source
+    The digest of an env's source in its task's identity: its file and the researcher's own modules it imports.
 spec
     Task specifications: the arm, the reward and (optionally) the obstacle of a reaching task.
 step_kernel
