@@ -23,6 +23,8 @@ metrics
     The estimators on a return matrix (statistics, PIC, POIC, bootstrap, Welch, diagnostics) and their registry.
 policies
     The random policy families (MLPs and movement primitives) and their weight priors.
+processes
+    Worker processes that end with their run: started, quieted and stopped in one place.
 progress
     Progress bars: one per stage of a study, which the work inside the stage advances.
 report

@@ -25,7 +25,8 @@ import yaml
 from omegaconf import OmegaConf
 from omegaconf.errors import InterpolationKeyError
 
-from taskcomplexity.errors import ConfigError, TaskComplexityError
+from taskcomplexity.errors import ConfigError, TaskComplexityError, WorkerLost
+from taskcomplexity.processes import quiet_tracker
 
 CONF_DIR = Path(str(resources.files("taskcomplexity") / "conf"))
 """The packaged Hydra configs (``taskcomplexity/conf``, shipped as package data): every entry point's
@@ -34,6 +35,7 @@ NOT_GROUPS = ("hydra",)
 """Directories of the packaged configs that are no group a user chooses an option of."""
 EXIT_BAD_INPUT = 2
 EXIT_DISK_FULL = 3
+EXIT_WORKER_LOST = 75   # sysexits' EX_TEMPFAIL: a temporary failure, the rerun resumes
 EXIT_OUT_OF_TIME = 124
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 128 + signal.SIGTERM
@@ -295,6 +297,20 @@ def _terminated(signum, frame) -> None:
     raise Terminated
 
 
+def _interrupt_again(unraisable) -> None:
+    """``sys.unraisablehook`` of an entry point: Ctrl-C or ``SIGTERM`` that arrived inside a finaliser (an env's
+    ``__del__``), where Python can only print it and go on, is delivered again, so it ends the run with its one
+    line; anything else goes to the previous hook."""
+    stop = {KeyboardInterrupt: signal.SIGINT, Terminated: signal.SIGTERM}.get(type(unraisable.exc_value))
+    if stop is not None:  # sent from a thread a moment later: sent from here, it would land in this hook again
+        threading.Timer(0.05, os.kill, (os.getpid(), stop)).start()
+        return
+    _UNRAISABLE(unraisable)
+
+
+_UNRAISABLE = sys.unraisablehook
+
+
 def disk_full(err: OSError, where: str | None = None) -> None:
     """Exit with the disk-full line (status 3) if ``err`` is a full disk; return otherwise."""
     if err.errno != errno.ENOSPC and "No space left on device" not in str(err):
@@ -311,7 +327,9 @@ def one_line_errors(fn):
     artefacts) is shortened; anything else is a bug and keeps its traceback (exit status 1).
     ``HYDRA_FULL_ERROR=1`` shows the traceback of input errors too. Three faults are not bugs and end
     in one line too, with the finished work kept for the rerun: Ctrl-C (exit 130), SIGTERM (exit 143),
-    a full disk (exit 3) and a cluster job's last time limit (exit 124).
+    a full disk (exit 3), a worker process that died (exit 75) and a cluster job's last time limit (exit 124).
+    ``kill -INT`` stops a run started in the background by a script too (which starts it with SIGINT ignored),
+    and an interrupt that lands in a finaliser is delivered again rather than lost.
     """
 
     @functools.wraps(fn)
@@ -319,8 +337,16 @@ def one_line_errors(fn):
         logging.captureWarnings(True)  # warnings go to the run log (conf/hydra/job_logging), not the console
         main_thread = threading.current_thread() is threading.main_thread()  # signals reach the main thread only
         previous = signal.signal(signal.SIGTERM, _terminated) if main_thread else None
+        if main_thread and signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+            # started in the background by a script (``cmd &``), which ignores SIGINT: ``kill -INT`` still stops it
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+        sys.unraisablehook = _interrupt_again
+        quiet_tracker()
         try:
             return fn(*args, **kwargs)
+        except WorkerLost as err:
+            say_error(str(err))
+            raise SystemExit(EXIT_WORKER_LOST) from None
         except TaskComplexityError as err:
             if os.environ.get("HYDRA_FULL_ERROR") == "1":
                 raise
@@ -343,6 +369,7 @@ def one_line_errors(fn):
             disk_full(err, f"the outputs directory {_outputs_of(args)}")
             raise
         finally:
+            sys.unraisablehook = _UNRAISABLE
             if main_thread:
                 signal.signal(signal.SIGTERM, previous)
 

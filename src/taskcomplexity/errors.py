@@ -16,3 +16,8 @@ class ArtefactError(TaskComplexityError):
 class EnvError(TaskComplexityError):
     """An environment raised while it was reset or stepped; the message names the env, where it raised (policy,
     episode, step) and its own exception, which is chained (``__cause__``) so its traceback reaches the run log."""
+
+
+class WorkerLost(TaskComplexityError):
+    """A worker process died while it held work (killed, out of memory); the message names the worker and says what
+    is saved. Entry points print it in one line and exit with status 75 (a temporary failure: rerun to resume)."""

@@ -13,13 +13,16 @@ import atexit
 import concurrent.futures
 import multiprocessing
 from collections.abc import Callable, Sequence
+from concurrent.futures.process import BrokenProcessPool
 
 import torch
 from threadpoolctl import threadpool_limits
 
 from taskcomplexity.cores import usable_cores
+from taskcomplexity.errors import WorkerLost
 from taskcomplexity.policies.families import FamilySpec
 from taskcomplexity.policies.mlp import PriorSpec
+from taskcomplexity.processes import start_worker, stop_pool
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.rwg.gym_backend import GymRollout
 from taskcomplexity.rwg.settings import RWGSettings
@@ -36,6 +39,7 @@ def gym_workers(settings: RWGSettings, chunks: int) -> int:
 
 def _start(task: Task) -> None:
     global _ROLLOUT
+    start_worker()
     torch.set_num_threads(1)
     threadpool_limits(limits=1)
     _ROLLOUT = GymRollout(task)
@@ -55,11 +59,16 @@ def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: 
     """Run the chunks ``keys`` ([start, stop) policy ranges) on ``workers`` processes; ``done(key, chunk)`` is
     called in this process as each finishes (in the order they finish). An error in a worker (an env check's
     refusal, a bug) cancels the chunks not started, lets the running ones finish and hands them to ``done`` (so
-    nothing computed is lost), then is raised here."""
+    nothing computed is lost), then is raised here. A worker that dies (killed, out of memory) is one
+    :class:`~taskcomplexity.processes.WorkerLost` naming the chunks saved; an interrupt (Ctrl-C, ``SIGTERM``) stops
+    the workers at once (:func:`~taskcomplexity.processes.stop_pool`): the chunks they held are computed again by
+    the rerun."""
     context = multiprocessing.get_context()
     error: BaseException | None = None
-    with concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start,
-                                                initargs=(task,)) as pool:
+    finished = 0
+    pool = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start,
+                                                  initargs=(task,))
+    try:
         futures = {pool.submit(_chunk, task, network, prior, settings, *key): key for key in keys}
         for future in concurrent.futures.as_completed(futures):
             if future.cancelled():
@@ -67,9 +76,18 @@ def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: 
             failed = future.exception()
             if failed is None:
                 done(futures[future], future.result())
+                finished += 1
             elif error is None:
                 error = failed
                 for other in futures:
                     other.cancel()  # those not started; the running ones finish and are kept
+    except BaseException:
+        stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
+    if isinstance(error, BrokenProcessPool):
+        raise WorkerLost(f"an RWG worker process of {task.env_id} died (killed, or out of memory) with "
+                         f"{len(keys) - finished} of {len(keys)} chunks unfinished; the {finished} finished are "
+                         "saved: rerun the same command to resume") from None
     if error is not None:
         raise error

@@ -31,13 +31,13 @@ import logging
 import multiprocessing
 import os
 import queue
-import signal
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from typing import Any
 
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
+from taskcomplexity.processes import start_worker
 from taskcomplexity.stages.stage import Stage, StudyWork
 
 log = logging.getLogger(__name__)
@@ -113,8 +113,9 @@ def _log_outcomes(done: Any, names: tuple[str, ...]) -> None:
 
 
 def _work(plan: Any, names: tuple[str, ...], rwg: str, done: Any) -> None:
-    """The process: lowest priority, Ctrl-C left to the chain (which ends this process), then :func:`compute_ahead`."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """The process: lowest priority, Ctrl-C left to the chain (which ends this process; so does the chain's death,
+    :func:`~taskcomplexity.processes.start_worker`), then :func:`compute_ahead`."""
+    start_worker()
     with contextlib.suppress(OSError, AttributeError):  # os.nice: POSIX only
         os.nice(NICENESS)
     from taskcomplexity.tasks.step_kernel import prepare_kernels

@@ -24,8 +24,9 @@ import pandas as pd
 
 from taskcomplexity.config import build, result_identity
 from taskcomplexity.cores import usable_cores
-from taskcomplexity.errors import ConfigError
+from taskcomplexity.errors import ConfigError, WorkerLost
 from taskcomplexity.jobs import JobMeter
+from taskcomplexity.processes import start_worker, stop_pool
 from taskcomplexity.rl.settings import (
     SACSettings,
     backend_identity,
@@ -219,38 +220,58 @@ def train_at_once(cache: Cache, jobs, workers: int, *, force: bool = False, prog
         return {}
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
     context = multiprocessing.get_context("spawn")
     seconds = {}
-    with context.Manager() as manager:
-        slots = manager.Queue()
-        for slot in range(at_once):
-            slots.put(slot)
-        pool = ProcessPoolExecutor(max_workers=at_once, mp_context=context)
-        try:
-            running = {pool.submit(_train_one, cache, task, variant, entry.solved_return, force, progress, slots):
-                       (key, entry, variant) for key, entry, task, variant in pending}
-            while running:
-                done, _ = wait(running, return_when=FIRST_COMPLETED)
-                for future in done:
-                    key, entry, variant = running.pop(future)
+    slots = context.Queue()
+    for slot in range(at_once):
+        slots.put(slot)
+    pool = ProcessPoolExecutor(max_workers=at_once, mp_context=context, initializer=_start_trainer, initargs=(slots,))
+    try:
+        running = {pool.submit(_train_one, cache, task, variant, entry.solved_return, force, progress):
+                   (key, entry, variant) for key, entry, task, variant in pending}
+        while running:
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                key, entry, variant = running.pop(future)
+                try:
                     seconds[key] = future.result()
-                    log.info("%-26s %s %s", entry.id, variant.variant, outcome(False, seconds[key]))
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+                except BrokenProcessPool:
+                    unfinished = sorted({f"{e.id} {v.variant}" for _, e, v in running.values()}
+                                        | {f"{entry.id} {variant.variant}"})
+                    raise WorkerLost(f"a SAC worker process died (killed, or out of memory) with "
+                                     f"{len(unfinished)} run{'s' if len(unfinished) != 1 else ''} unfinished "
+                                     f"({', '.join(unfinished)}); the {len(seconds)} trained here and every "
+                                     "evaluation checkpoint are saved: rerun the same command to resume") from None
+                log.info("%-26s %s %s", entry.id, variant.variant, outcome(False, seconds[key]))
+    except BaseException:
+        stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
     return seconds
 
 
-def _train_one(cache: Cache, task, settings, solved_return, force: bool, progress: bool, slots) -> float:
+_SLOTS = None
+"""The progress-bar lines free in this SAC worker process's pool (a queue; set by :func:`_start_trainer`)."""
+
+
+def _start_trainer(slots) -> None:
+    global _SLOTS
+    start_worker()
+    _SLOTS = slots
+
+
+def _train_one(cache: Cache, task, settings, solved_return, force: bool, progress: bool) -> float:
     """One run of :func:`train_at_once` in its worker process: its seconds. Its progress bar takes a free line."""
-    slot = slots.get()
+    slot = _SLOTS.get()
     try:
         started = time.perf_counter()
         run_sac_stage(cache, task, settings, solved_return=solved_return, force=force, progress=progress,
                       bar_position=slot)
         return time.perf_counter() - started
     finally:
-        slots.put(slot)
+        _SLOTS.put(slot)
 
 
 def sac_settings_from_config(node: Any):
