@@ -70,13 +70,103 @@ def paper_style():
 
 
 def save_figure(figure: Figure, directory: Path, name: str) -> list[Path]:
-    """Write ``name.png`` (150 dpi) and ``name.pdf`` under ``directory``; return both paths."""
+    """Write ``name.png`` (150 dpi) and ``name.pdf`` under ``directory``, their ticks made legible first
+    (:func:`legible_ticks`); return both paths."""
     directory.mkdir(parents=True, exist_ok=True)
     paths = [directory / f"{name}.png", directory / f"{name}.pdf"]
     with paper_style():
+        legible_ticks(figure)
         for path in paths:
             figure.savefig(path, dpi=DPI, metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
     return paths
+
+
+def shown_tick_labels(axis, which: str = "both") -> list:
+    """The tick labels ``axis`` (an Axes' ``xaxis`` or ``yaxis``) shows at its last draw: visible, with text, at a
+    tick within the view limits; ``which``: "major", "minor" or "both"."""
+    low, high = sorted(axis.get_view_interval())
+    slack = (high - low) * 1e-9
+    coordinate = 0 if axis.axis_name == "x" else 1
+    return [label for label in axis.get_ticklabels(which=which)
+            if label.get_visible() and label.get_text().strip()
+            and low - slack <= label.get_position()[coordinate] <= high + slack]
+
+
+def shows_tick_labels(axis) -> bool:
+    """Whether ``axis`` is meant to label its ticks (not an axis switched off, or a shared one whose labels are
+    left to its neighbour)."""
+    if not axis.axes.axison or not axis.get_visible():
+        return False
+    sides = ("labelbottom", "labeltop") if axis.axis_name == "x" else ("labelleft", "labelright")
+    parameters = axis.get_tick_params(which="major")
+    return any(parameters.get(side, False) for side in sides)
+
+
+def overlapping(labels: Sequence, *, gap: float = 2.0) -> bool:
+    """Whether two of the tick ``labels`` of one axis overlap, or come closer than ``gap`` points, on the canvas
+    at the last draw."""
+    if not labels:
+        return False
+    pad = gap * labels[0].figure.dpi / 72
+    boxes = [label.get_window_extent() for label in labels]
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            if a.x0 < b.x1 + pad and b.x0 < a.x1 + pad and a.y0 < b.y1 + pad and b.y0 < a.y1 + pad:
+                return True
+    return False
+
+
+def legible_ticks(figure: Figure, *, attempts: int = 4) -> Figure:
+    """Give every labelled axis of ``figure`` at least 2 labelled ticks and no two labels that overlap.
+
+    An axis with fewer than 2 labels in view gets more ticks: a log axis its 1-2-5 ticks (a count axis up to 8
+    shows 1, 2, 5), a linear one at least 2 from its locator. An axis whose labels overlap gets fewer: first its
+    minor labels go, then a linear axis asks its locator for fewer bins and a log axis drops its 2s and 5s, then
+    decades. Fixed ticks (category names, the sizes of a sweep) are left as drawn. The figure is laid out again
+    after each change, up to ``attempts`` times; returns ``figure``.
+    """
+    for _ in range(attempts):
+        figure.draw_without_rendering()
+        changed = False
+        for ax in figure.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                if shows_tick_labels(axis):
+                    labels = shown_tick_labels(axis)
+                    if len(labels) < 2:
+                        changed |= _more_ticks(axis)
+                    elif overlapping(labels):
+                        changed |= _fewer_ticks(axis, len(labels))
+        if not changed:
+            break
+    return figure
+
+
+def _more_ticks(axis) -> bool:
+    locator = axis.get_major_locator()
+    if axis.get_scale() == "log" and isinstance(locator, mpl.ticker.LogLocator):
+        axis.set_major_locator(mpl.ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        if isinstance(axis.get_major_formatter(), mpl.ticker.LogFormatter):
+            axis.set_major_formatter(mpl.ticker.FuncFormatter(lambda value, _: f"{value:g}"))
+        axis.set_minor_formatter(mpl.ticker.NullFormatter())
+        return True
+    if isinstance(locator, mpl.ticker.MaxNLocator):
+        locator.set_params(min_n_ticks=3)
+        return True
+    return False
+
+
+def _fewer_ticks(axis, shown: int) -> bool:
+    if shown_tick_labels(axis, "minor"):
+        axis.set_minor_formatter(mpl.ticker.NullFormatter())
+        return True
+    locator = axis.get_major_locator()
+    if isinstance(locator, mpl.ticker.LogLocator):
+        axis.set_major_locator(mpl.ticker.LogLocator(base=10, numticks=max(2, shown // 2 + 1)))
+        return True
+    if isinstance(locator, mpl.ticker.MaxNLocator) and shown > 2:
+        locator.set_params(nbins=max(1, shown - 2), min_n_ticks=2)
+        return True
+    return False
 
 
 def _figure(rows: int, columns: int, height: float, **kwargs) -> tuple[Figure, np.ndarray]:
