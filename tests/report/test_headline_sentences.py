@@ -103,7 +103,20 @@ def test_the_primary_sentence_counts_each_kind_of_the_other_verdicts():
     assert one.endswith("(Welch's test, p < 0.05; the other verdict is not significant).")
     single = primary({"pic": ["undefined"], "poic": ["not significant"]}, ["pic", "poic"])
     assert single == ("Against the known complexity relation, PIC is undefined on it; POIC is not significant on it "
-                      "(Welch's test, p < 0.05).")
+                      "(none significant at p < 0.05, Welch's test).")
+
+
+def test_the_primary_sentence_cites_the_test_only_where_a_verdict_reached_its_cut_off():
+    blank = primary({"pic": ["uninformative"] * 3, "poic": ["uninformative"] * 3}, ["pic", "poic"])
+    assert blank == ("Against the 3 known complexity relations, PIC is uninformative on every one; POIC is "
+                     "uninformative on every one.")
+    untested = primary({"pic": ["uninformative"] * 3, "poic": ["uninformative", "uninformative", "undefined"]},
+                       ["pic", "poic"])
+    assert untested.endswith("POIC agrees with 0 and contradicts 0 and is uninformative on 2 (the other verdict is "
+                             "undefined).")
+    open_ = primary({"pic": ["uninformative"] * 3, "poic": ["uninformative", "not significant", "not significant"]},
+                    ["pic", "poic"])
+    assert open_.endswith("(none significant at p < 0.05, Welch's test; the other 2 verdicts are not significant).")
 
 
 def survival(rows: list[list[str]], estimators=("PIC", "PIC (MM)", "kNN")) -> pd.DataFrame:
@@ -261,7 +274,14 @@ def test_the_primary_sentence_states_the_tables_counts(drawn):
     if relations > 1:
         counts = {o: outcomes.count(o) for o in ("not significant", "undefined")}
         rest = sum(counts.values())
-        tail = text.split("(Welch's test, p < 0.05", 1)[1]
+        if not {"agree", "contradict"} & set(outcomes):  # no verdict reached the cut-off: the test is not cited
+            cut = "none significant at p < 0.05, Welch's test" if "not significant" in outcomes else ""
+            assert "Welch's test, p < 0.05" not in text
+            tail = text.split(f"({cut}", 1)[1] if cut or "(" in text else ")."
+            if not cut and tail != ").":
+                tail = "; " + tail
+        else:
+            tail = text.split("(Welch's test, p < 0.05", 1)[1]
         if rest == 0:
             assert tail == ")."
         elif all(counts.values()):

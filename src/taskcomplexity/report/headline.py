@@ -163,7 +163,14 @@ def primary_sentence(summary: pd.DataFrame, verdict: pd.DataFrame, primary: list
         outcome = next(o for o, n in rest.items() if n)
         tail = (f"; the other verdict is {outcome}" if other == 1
                 else f"; the other {other} verdicts are {outcome}")
-    return f"{known}, " + "; ".join(parts) + f" ({test}{tail})."
+    # the test is cited with its cut-off only where a verdict reached it, or to say that none did
+    if chosen["outcome"].isin(SIGNIFICANT).any():
+        cited = f" ({test}{tail})"
+    elif (chosen["outcome"] == "not significant").any():
+        cited = f" (none significant at p < {alpha:g}, Welch's test{tail})"
+    else:
+        cited = f" ({tail.removeprefix('; ')})" if tail else ""
+    return f"{known}, " + "; ".join(parts) + f"{cited}."
 
 
 def best_measure_sentence(data: StudyData) -> str:
