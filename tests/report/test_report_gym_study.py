@@ -20,7 +20,7 @@ from taskcomplexity.stages.rwg_stage import RWGRequest
 from taskcomplexity.study_data import study_from_config
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.verdict.references import on_values
-from taskcomplexity.verdict.replication import REPLICATION_OUTCOMES
+from taskcomplexity.verdict.replication import FINDING_ONLY, REPLICATION_OUTCOMES
 
 PAIR = study_from_config({
     "name": "pair",
@@ -209,7 +209,7 @@ def test_algorithm_scores_give_score_a_score_r_and_every_metrics_correlation(tmp
     printed = pd.read_csv(tables / "published_printed.csv")
     assert printed["Task"].tolist() == ["cart", "pend"]
     assert printed["PIC"].iloc[1] == f"{metrics['pend']['pic']:.3f} (3.700)"
-    assert pd.read_csv(tables / "replications.csv")["Outcome"].isin(REPLICATION_OUTCOMES).all()
+    assert pd.read_csv(tables / "replications.csv")["Outcome"].isin((*REPLICATION_OUTCOMES, FINDING_ONLY)).all()
     for metric, r in (("POIC", "0.807"), ("PIC", "-0.295")):
         assert f"{metric} against Score(A): a paper prints r = {r}" in parse_text(index)
 
@@ -252,3 +252,22 @@ def test_a_reproduced_correlation_says_where_the_published_level_lies():
                            "interval across the tasks (0.14 to 0.88)")
     assert _level({**row, "pearson_high": 0.9}).startswith("; the published r lies inside our interval")
     assert _level({**row, "outcome": "estimator bias"}) == "" and _level({**row, "pearson_low": float("nan")}) == ""
+
+
+def test_a_reproduced_finding_whose_value_ours_excludes_says_both_in_its_sentence(scored_study):
+    from types import SimpleNamespace
+
+    from taskcomplexity.report.headline import replication_sentences
+
+    pic = {"table": "printed", "reference": "score_a", "quantity": "pic", "metric": "pic", "published_r": -0.295,
+           "published_p": 0.328, "tasks": 13, "pearson_r": 0.44, "pearson_p": 0.13, "pearson_low": 0.38,
+           "pearson_high": 0.48, "tasks_low": -0.15, "tasks_high": 0.80, "informative_tasks": float("nan"),
+           "informative_r": float("nan"), "informative_p": float("nan"), "net_r": float("nan"),
+           "net_p": float("nan"), "net_low": float("nan"), "net_high": float("nan"), "outcome": "reproduced",
+           "why": "neither the published correlation nor ours is significant"}
+    data = SimpleNamespace(verdict={"replications": pd.DataFrame([pic])}, registry=DEFAULT_REGISTRY,
+                           study=scored_study, metrics=pd.DataFrame({"policies": [1000], "episodes": [1000]}))
+    (sentence,) = replication_sentences(data)
+    assert ("Finding reproduced, value not at N = 1,000 × M = 1,000: neither the published correlation nor ours is "
+            "significant; the published r lies outside our interval over resampled policies and outside Fisher's "
+            "interval across the tasks (-0.15 to 0.80).") in sentence.replace("−", "-")

@@ -13,11 +13,13 @@ from taskcomplexity.metrics import DEFAULT_REGISTRY
 from taskcomplexity.study_data import study_from_config
 from taskcomplexity.verdict.references import correlations
 from taskcomplexity.verdict.replication import (
+    FINDING_ONLY,
     MEANINGS,
     REPLICATION_COLUMNS,
     fisher_interval,
     outcome,
     replications,
+    shown_outcome,
 )
 
 STUDIES = Path(__file__).resolve().parents[2] / "src" / "taskcomplexity" / "conf" / "study"
@@ -62,6 +64,21 @@ def test_each_case_has_its_outcome(case, checked, has_null, expected):
     found, why = outcome(case, checked=checked, has_null=has_null)
     assert found == expected and why
     assert found in MEANINGS
+
+
+def test_a_reproduced_finding_whose_value_ours_excludes_is_shown_as_the_finding_only():
+    # the atlas's PIC row: theirs r = -0.295 (p = 0.33); ours r = 0.44, neither significant, and both of our
+    # intervals (over resampled policies, Fisher's across 13 tasks) exclude -0.295
+    pic = dict(row(0.44, 0.13, 0.38, 0.48, published=(-0.295, 0.328), informative=(13, 0.44, 0.13)),
+               tasks_low=-0.15, tasks_high=0.80)
+    found, why = outcome(pic, checked=True, has_null=True)
+    assert found == "reproduced" and why == "neither the published correlation nor ours is significant"
+    assert shown_outcome({**pic, "outcome": found}) == FINDING_ONLY
+    # inside either interval, the value is not excluded: reproduced as it is
+    assert shown_outcome({**pic, "outcome": found, "tasks_low": -0.4}) == "reproduced"
+    assert shown_outcome({**pic, "outcome": found, "pearson_low": -0.3}) == "reproduced"
+    # another outcome is shown as it is
+    assert shown_outcome({**pic, "outcome": "unresolved at this budget"}) == "unresolved at this budget"
 
 
 def test_a_study_declaring_published_correlations_gets_them_beside_ours():

@@ -14,6 +14,7 @@ from taskcomplexity.report.groups import group_sentences
 from taskcomplexity.report.verdict_tables import survival_tables
 from taskcomplexity.verdict.judge import SURVIVAL
 from taskcomplexity.verdict.references import CONFIDENCE, on_values, reference_label
+from taskcomplexity.verdict.replication import shown_outcome
 
 
 def _count(summary: pd.DataFrame, metric: str) -> dict[str, int]:
@@ -431,14 +432,15 @@ def replication_sentences(data: StudyData) -> list[str]:
             budget = f" at N = {scale[0]:,} × M = {scale[1]:,}" if scale else ""
             sentences.append(
                 f"{label} against {reference_label(r['reference'])}: {data.study.published.source} prints r = "
-                f"{num(r['published_r'], 3)} (p = {pvalue(r['published_p'])}); {ours}. {r['outcome'].capitalize()}"
+                f"{num(r['published_r'], 3)} (p = {pvalue(r['published_p'])}); {ours}. {shown_outcome(r).capitalize()}"
                 f"{budget}: {r['why']}{_level(r)}.")
     return sentences
 
 
 def _level(r) -> str:
     """Where the published r lies against our intervals, when the outcome is reproduced (the same sign and
-    significance need not be the same level): "" otherwise or without an interval."""
+    significance need not be the same level; outside both, the outcome shown is the finding's only): "" otherwise
+    or without an interval."""
     if r["outcome"] != "reproduced" or not np.isfinite(r["pearson_low"]):
         return ""
     inside = r["pearson_low"] <= r["published_r"] <= r["pearson_high"]

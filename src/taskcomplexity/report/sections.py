@@ -37,7 +37,7 @@ from taskcomplexity.report.verdict_tables import (
 )
 from taskcomplexity.report.writer import Writer, left_out, panels_left_out
 from taskcomplexity.verdict.references import CONFIDENCE, reference_label
-from taskcomplexity.verdict.replication import MEANINGS
+from taskcomplexity.verdict.replication import FINDING_ONLY, FINDING_ONLY_MEANING, MEANINGS
 
 SCORE = "score"
 """The metric on the vertical axes of the score scatter (when registered)."""
@@ -119,8 +119,16 @@ def published_blocks(writer: Writer, data: StudyData) -> list:
             "Informative tasks only: the tasks whose value exceeds its permutation null and sits below its "
             "ceiling. Net of the null: each value minus the mean of its permutation null. Ours holds when p < "
             f"{1 - CONFIDENCE:g} and its interval is clear of 0 on the published side. Outcomes: "
-            + "; ".join(f"{name}: {meaning}" for name, meaning in MEANINGS.items()) + ".", wrap=True))
+            + "; ".join(f"{name}: {meaning}" for name, meaning in shown_meanings().items()) + ".", wrap=True))
     return blocks
+
+
+def shown_meanings() -> dict[str, str]:
+    """Every outcome a published correlation is shown with, in order, with what it means."""
+    meanings = dict(MEANINGS)
+    shown = list(meanings.items())
+    shown.insert(list(meanings).index("reproduced") + 1, (FINDING_ONLY, FINDING_ONLY_MEANING))
+    return dict(shown)
 
 
 def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:

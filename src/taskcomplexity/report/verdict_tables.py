@@ -12,6 +12,7 @@ from taskcomplexity.report.labels import kind_label
 from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, UNINFORMATIVE_REASONS, mark, uninformative_reasons
 from taskcomplexity.verdict import by_relation
 from taskcomplexity.verdict.references import on_values, reference_label
+from taskcomplexity.verdict.replication import shown_outcome
 
 SYMBOLS = {outcome: shown.mark for outcome, shown in OUTCOME_DISPLAY.items()}
 """Outcome → its matrix mark (from :data:`~taskcomplexity.report.outcomes.OUTCOME_DISPLAY`)."""
@@ -248,7 +249,8 @@ def published_values_display(data: StudyData, name: str) -> pd.DataFrame:
 
 def replication_display(data: StudyData) -> pd.DataFrame:
     """Every published correlation beside ours: r (p) printed, ours with its bootstrap interval, on the
-    informative tasks, net of the null, and the outcome (:mod:`taskcomplexity.verdict.replication`)."""
+    informative tasks, net of the null, and the outcome as shown (:func:`~taskcomplexity.verdict.replication.
+    shown_outcome`: a reproduced finding whose value ours excludes says so)."""
     rows = []
     for _, r in data.verdict["replications"].iterrows():
         interval = (f" [{num(r['pearson_low'], 2)}, {num(r['pearson_high'], 2)}]"
@@ -266,7 +268,7 @@ def replication_display(data: StudyData) -> pd.DataFrame:
                      "Ours r [interval] (p)": r_p(r["pearson_r"], r["pearson_p"]).replace(" (", interval + " (", 1),
                      "Tasks": int(r["tasks"]) if np.isfinite(r["tasks"]) else MISSING,
                      "Informative tasks only": informative, "Net of the null": net,
-                     "Outcome": r["outcome"], "Why": r["why"]})
+                     "Outcome": shown_outcome(r), "Why": r["why"]})
     return pd.DataFrame(rows)
 
 

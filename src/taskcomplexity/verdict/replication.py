@@ -22,6 +22,10 @@ side. The outcome of a published correlation that is significant (p < ``1 − CO
 
 A published correlation that is not significant is ``reproduced`` when ours is not significant either (on the
 values, with at least 3 tasks carrying information), and ``not reproduced`` when ours holds in either direction.
+
+``reproduced`` is the finding: its sign and significance (or that neither is significant). Where ours excludes the
+published r both over the policy resamples and across the tasks, the finding holds and the value does not; the report
+shows that outcome as :data:`FINDING_ONLY` (:func:`shown_outcome`), from the columns here.
 """
 
 from __future__ import annotations
@@ -48,6 +52,11 @@ MEANINGS = {
 }
 """Every outcome of :func:`replications`, in the order the report lists them, with what it means."""
 REPLICATION_OUTCOMES = tuple(MEANINGS)
+FINDING_ONLY = "finding reproduced, value not"
+"""How :func:`shown_outcome` shows a ``reproduced`` correlation whose published r ours excludes over resampled
+policies and across the tasks."""
+FINDING_ONLY_MEANING = ("as reproduced, but ours excludes the published r over resampled policies and across the "
+                        "tasks: the finding holds, the value does not")
 REPLICATION_COLUMNS = ("table", "reference", "quantity", "metric", "published_r", "published_p", "tasks", "pearson_r",
                        "pearson_p", "pearson_low", "pearson_high", "tasks_low", "tasks_high", "informative_tasks",
                        "informative_r", "informative_p", "net_r", "net_p", "net_low", "net_high", "outcome", "why")
@@ -168,6 +177,21 @@ def outcome(row: dict, *, checked: bool, has_null: bool) -> tuple[str, str]:
     if holds(row["pearson_r"], row["pearson_p"], np.nan, np.nan, -side):
         return "not reproduced", "ours is significant on the other side"
     return "unresolved at this budget", "ours is not significant"
+
+
+def value_excluded(row) -> bool:
+    """Whether ours excludes the published r both over the policy resamples (``pearson_low``/``_high``) and across
+    the tasks (``tasks_low``/``_high``); False where either interval is missing."""
+    r = row["published_r"]
+    intervals = [(row["pearson_low"], row["pearson_high"]),
+                 (row.get("tasks_low", np.nan), row.get("tasks_high", np.nan))]
+    return all(np.isfinite(low) and np.isfinite(high) and not low <= r <= high for low, high in intervals)
+
+
+def shown_outcome(row) -> str:
+    """The outcome as the report shows it: :data:`FINDING_ONLY` for a ``reproduced`` correlation whose value ours
+    excludes (:func:`value_excluded`), else the row's ``outcome``."""
+    return FINDING_ONLY if row["outcome"] == "reproduced" and value_excluded(row) else str(row["outcome"])
 
 
 def _tasks(count: int) -> str:
