@@ -8,6 +8,7 @@ compare it with the artefacts.
 from __future__ import annotations
 
 import base64
+import re
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -281,3 +282,17 @@ def test_the_headline_matrix_shows_the_primary_metrics_each_familys_best_and_the
     assert first.count("<th ") == len(headline.columns)  # the box's matrix is the narrow one…
     assert "verdict_matrix.csv" not in box and "verdict_headline.csv" in box  # …and the full one is elsewhere
     assert html.index("verdict_matrix.csv") > html.index("Appendix")
+
+
+def test_a_metric_whose_label_does_not_say_what_it_is_is_defined_in_the_verdict_box(report):
+    import html as html_lib
+
+    page = html_lib.unescape(report.read_text(encoding="utf-8"))
+    verdict, methods = page.index('<section class="verdict">'), page.index('<aside class="methods">')
+    defined = [m for m in DEFAULT_REGISTRY if m.definition and re.search(rf"\b{re.escape(m.label)}\b", page)]
+    assert {"variance", "r_mean", "score"} <= {m.name for m in defined}
+    for metric in defined:
+        definition = page.index(f"{metric.label} = {metric.definition}")
+        assert verdict < definition < methods, metric.name  # in the verdict box, before the page shows its values
+        assert not re.search(rf"\b{re.escape(metric.label)}\b", page[:verdict]), metric.name
+        assert page.count(f"{metric.label} = {metric.definition}") == 1, metric.name  # defined once

@@ -154,6 +154,9 @@ class Metric:
     comparable_across_tasks : bool
         Its values are on one scale whatever the task (False for values in each task's own reward
         units, e.g. the raw mean return): the report never ranks it across tasks as a complexity measure.
+    definition : str
+        What it is, as a formula of the returns, where its label does not say (the report gives it where it first
+        names the metric); empty for a label that names a published quantity (PIC, POIC).
     """
 
     name: str
@@ -174,6 +177,7 @@ class Metric:
     version: int = 1
     information: Information | None = None
     comparable_across_tasks: bool = True
+    definition: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not NAME.fullmatch(self.name):
@@ -300,15 +304,21 @@ DEFAULT_REGISTRY = Registry((
            details=(Detail("r_min", "r_min", "sum of rewards", lambda s: s.score.r_min, shown=False),
                     Detail("r_max", "r_max", "sum of rewards", lambda s: s.score.r_max, shown=False)),
            why="the mean return of random policies sits closer to the best return found, so good behaviour is "
-               "common under the prior and cheap to find"),
+               "common under the prior and cheap to find",
+           definition="(r_mean − r_min)/(r_max − r_min), with r_mean the mean of all N·M episode returns, r_min the "
+                      "worst policy's mean return and r_max the best episode return"),
     Metric("r_mean", "mean return", "mean R", "sum of rewards", True, "random policies", "metrics",
            compute=lambda s: s.score.r_mean, batched=True, comparable_across_tasks=False,
            why="rewards are what the agent maximises, so a prior whose average behaviour already earns more "
-               "starts closer to the goal (returns are in task units: a crude baseline across tasks)"),
+               "starts closer to the goal (returns are in task units: a crude baseline across tasks)",
+           definition="r_mean, the mean of all N·M episode returns (every policy's every episode)"),
     Metric("variance", "variance", "var.", "sum of rewards", True, "random policies", "metrics",
            compute=lambda s: s.score.variance, batched=True, comparable_across_tasks=False,
            why="the spread of returns across random behaviour is the signal random search and policy gradients "
-               "follow; a task where every policy earns the same return gives no direction to improve"),
+               "follow; a task where every policy earns the same return gives no direction to improve",
+           definition="Var(R)/(r_max − r_min), the variance of all N·M episode returns pooled over policies and "
+                      "episodes (not of the policies' means), over the span from the worst policy's mean return to "
+                      "the best episode return; in return units"),
     Metric("pic_miller_madow", "PIC (Miller–Madow)", "PIC MM", "nats", True, "estimator", "diagnostics",
            compute=lambda s: s.pic_miller_madow.pic, batched=True, quantity=_I, why=_OTHER_ESTIMATOR,
            information=Information(null="pic_miller_madow", ceiling=True, binned=True)),

@@ -134,8 +134,9 @@ def shown_meanings() -> dict[str, str]:
 def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
     """The verdict box's tables: the relation × metric matrix and the per-metric summary."""
     blocks = group_blocks(writer, data, alpha=alpha)
+    defined: set[str] = set()
     if len(data.verdict["verdict"]):
-        blocks.append(headline_matrix(writer, data, alpha=alpha))
+        blocks.append(headline_matrix(writer, data, alpha=alpha, defined=defined))
     caption = ("Counts of outcomes over the known relations" if len(data.verdict["verdict"]) else
                "The study gives no relation, so nothing is counted")
     caption += ("; Kendall's τ between each known order of the study and the metric's order (+1: exactly as "
@@ -144,7 +145,8 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
     named = joined(reference_label(n) for n in dict.fromkeys(references["reference"]))
     caption += (f"; Pearson r (p) of the metric's easiness with {named} across tasks (higher = easier)"
                 if len(references) else "")
-    blocks.append(writer.table(summary_display(data), "verdict_summary", "Verdict per metric.", caption + "."))
+    caption += "." + definitions(data, data.verdict["summary"]["metric"], defined)
+    blocks.append(writer.table(summary_display(data), "verdict_summary", "Verdict per metric.", caption))
     if len(references):
         algorithm = ("Score(A) = (A_avg − r_min)/(max(r_max, A_max) − r_min) and Score(R) = (r_mean − r_min)/"
                      "(max(r_max, A_max) − r_min), with r_min the worst policy mean, r_max the best episode return "
@@ -153,8 +155,8 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
         cited = (f"The reference score: {data.study.reference_source}. " if data.study.reference_source else "")
         blocks.append(writer.table(
             reference_table(data), "reference_scores", "Metrics and reference scores per task.",
-            "Point estimates on the whole sample (nats for the entropies and PIC/POIC, returns for r_mean; "
-            "variance is Var(R)/(r_max − r_min)) beside the reference scores. " + algorithm + cited))
+            "Point estimates on the whole sample (nats for the entropies and PIC/POIC, returns for r_mean and "
+            "variance) beside the reference scores. " + algorithm + cited))
         blocks.append(writer.table(
             correlation_display(data), "reference_correlations", f"Correlation with {named}.",
             "Pearson r (two-sided p) and Spearman ρ across tasks between each reference score and each metric's "
@@ -175,7 +177,19 @@ def verdict_blocks(writer: Writer, data: StudyData, *, alpha: float) -> tuple:
     return tuple(blocks)
 
 
-def headline_matrix(writer: Writer, data: StudyData, *, alpha: float) -> TableBlock:
+def definitions(data: StudyData, metrics, defined: set[str]) -> str:
+    """" Defined: score_R = …; variance = …." for the ``metrics`` (names) with a registry definition not yet in
+    ``defined``, which it then holds (empty when there is none): each metric is defined where the page first names
+    it."""
+    registry = data.registry
+    new = [m for m in dict.fromkeys(metrics) if m in registry and registry[m].definition and m not in defined]
+    defined.update(new)
+    if not new:
+        return ""
+    return " Defined: " + "; ".join(f"{registry.label(m)} = {registry[m].definition}" for m in new) + "."
+
+
+def headline_matrix(writer: Writer, data: StudyData, *, alpha: float, defined: set[str] | None = None) -> TableBlock:
     """The verdict box's relation × metric matrix: the primary metrics, each family's most agreeing metric and
     the most contradicting one (:func:`~taskcomplexity.report.verdict_tables.headline_metrics`), narrow enough
     for the page."""
@@ -199,7 +213,8 @@ def headline_matrix(writer: Writer, data: StudyData, *, alpha: float) -> TableBl
         matrix, "verdict_headline", "Verdict by known relation.",
         f"{shown}{appendix}. {outcome_legend(outcomes, reasons_shown(data, chosen))}. Hover a cell for the values, "
         "the p-value and the reason of ○ "
-        f"(Welch's test, significant at p < {alpha:g}).", tips,
+        f"(Welch's test, significant at p < {alpha:g})." + definitions(data, chosen, set() if defined is None
+                                                                      else defined), tips,
         files=(outcome_words(matrix), "Outcome of the primary metrics, each family's most agreeing metric and the "
                                       "most contradicting one on every known relation (significant at p < "
                                       f"{alpha:g}, Welch's t-test)."),
