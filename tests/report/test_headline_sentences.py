@@ -9,7 +9,7 @@ import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from taskcomplexity.report.format import and_list, naming, significant_int
+from taskcomplexity.report.format import and_list, naming
 from taskcomplexity.report.headline import measure_sentence, primary_sentence, survival_sentence
 from taskcomplexity.report.verdict_tables import RELATION
 from taskcomplexity.verdict.judge import survival as survival_of
@@ -350,44 +350,58 @@ def test_the_survival_sentence_counts_what_the_table_holds(rows):
 
 
 def sampling_data(bins: int, policies: int = 1000, episodes: int = 50):
-    """A study's artefacts as resolve_sentences reads them: PIC and POIC unresolved on relation t0 > u0 (Welch
-    would resolve them at N ≈ 5,000 and 8,000), PIC's difference on t1 > u1 mostly the nulls', where PIC − null
-    agrees."""
+    """A study's artefacts as resolve_sentences reads them: PIC and POIC not significant on relation t0 > u0 (Welch
+    would resolve them at N ≈ 5,000 and 8,000), PIC's difference on t1 > u1 80 % the nulls' (M′ = 50·(0.8/0.25)² =
+    800 settles it, at a held B), where PIC − null agrees, and PIC uninformative on t2 > u2 with a value equal to its
+    null (not sized)."""
     from types import SimpleNamespace
 
     from taskcomplexity.metrics import DEFAULT_REGISTRY
 
-    def row(metric, i, outcome, resolve=float("nan"), informative=True):
+    def row(metric, i, outcome, resolve=float("nan"), informative=True, share=float("nan")):
         return {"metric": metric, "easier": f"t{i}", "harder": f"u{i}", "outcome": outcome, "policies": policies,
-                "policies_to_resolve": resolve, "informative_easier": informative, "informative_harder": informative}
+                "policies_to_resolve": resolve, "informative_easier": informative, "informative_harder": informative,
+                "null_share_of_difference": share}
 
     verdict = pd.DataFrame([row("pic", 0, "not significant", 5000.0), row("poic", 0, "not significant", 8000.0),
-                            row("pic", 1, "uninformative"), row("pic_minus_null", 1, "agree")])
+                            row("pic", 1, "uninformative", share=0.8), row("pic_minus_null", 1, "agree"),
+                            row("pic", 2, "uninformative", informative=False, share=0.3)])
     manifest = SimpleNamespace(manifest={"config": {"bins": bins}})
     return SimpleNamespace(verdict={"verdict": verdict}, registry=DEFAULT_REGISTRY,
                            metrics=pd.DataFrame({"policies": [policies] * 2, "episodes": [episodes] * 2}),
                            results={t: SimpleNamespace(metrics=manifest) for t in ("a", "b")})
 
 
-def test_more_sampling_states_what_it_holds_and_that_auto_b_lets_the_values_approach_their_nulls():
+def test_the_next_budget_is_one_n_m_b_that_the_headline_and_the_verdict_table_read_alike():
     from taskcomplexity.metrics.pic import auto_bins
+    from taskcomplexity.report.budget import next_budget, to_resolve
     from taskcomplexity.report.headline import resolve_sentences
 
-    pic, settle, poic = resolve_sentences(sampling_data(bins=auto_bins(1000, 50)))
-    assert pic.startswith("More sampling: 1 unresolved relation of PIC would be resolved by Welch's test at "
-                          f"N ≈ {significant_int(5000)} policies (now N = 1,000; holding M and B = 1,000, assuming")
-    assert "PIC's permutation nulls move with N too, and the report does not predict them there." in pic
-    assert pic.endswith("Under metrics.bins=auto, B = N·M/50 grows with N and PIC's values approach their nulls: "
-                        "hold B (metrics.bins=1000) to test these at more N.")
-    assert "(now N = 1,000; holding M, assuming" in poic and "B =" not in poic  # POIC has no bins
-    assert settle == ("More policies at metrics.bins=auto do not settle the 1 relation where PIC's difference is "
-                      "mostly the nulls' (B grows with N and the values approach their nulls): the nulls shrink with "
-                      "more episodes M at a held B; PIC − null, net of its nulls, agrees on 1 of them.")
+    data = sampling_data(bins=auto_bins(1000, 50))
+    budget = next_budget(data)
+    # N: the larger of the two projections (8 000); M: the nulls' share 0.8 → 0.5 needs the nulls scaled by
+    # f = 0.5·0.2/(0.8·0.5) = 0.25, so M′ = 50/0.25² = 800; B held at its value now
+    assert (budget.policies, budget.episodes, budget.bins) == (8000, 800, 1000)
+    assert budget.overrides() == "study.policies=8000 study.episodes=800 metrics.bins=1000"
+    thin = "\u2009"  # the thousands separator of a size
+    assert list(to_resolve(data)) == [f"N ≈ 5{thin}000", f"N ≈ 8{thin}000", "M ≈ 800", "–", "–"]
+    lead, by_n, by_m, unsized, net = resolve_sentences(data)
+    assert lead.replace(thin, " ") == ("Next budget: N = 8 000 policies × M = 800 episodes, B = 1,000 held (now N = 1,000 × M = 50; "
+                    "study.policies=8000 study.episodes=800 metrics.bins=1000).")
+    assert by_n.replace(thin, " ").startswith("At N = 8 000 (this M and B) Welch's test would resolve 1 relation of PIC and 1 of POIC "
+                           "now not significant, assuming the batches' sd falls as N^-1/2")
+    assert "the permutation nulls move with N too, and the report does not predict them there." in by_n
+    assert by_m == ("At M = 800 (this B) the nulls' share of the difference falls to 50 % on 1 relation of PIC whose "
+                    "difference is now mostly the nulls', assuming each null falls at least as M^-1/2 and the excesses "
+                    "over the nulls stay; more policies do not settle those (under metrics.bins=auto, B = N·M/50 "
+                    "grows with N and the values approach their nulls: hold B with metrics.bins=1000).")
+    assert unsized == "Not sized by either: 1 relation of PIC (a value equal to its null or at its ceiling)."
+    assert net == ("On the 1 relation where PIC's difference is mostly the nulls', PIC − null, net of its nulls, "
+                   "agrees on 1 of them.")
 
 
-def test_with_a_b_off_the_auto_rule_more_sampling_says_nothing_of_auto():
+def test_with_a_b_off_the_auto_rule_the_next_budget_says_nothing_of_auto():
     from taskcomplexity.report.headline import resolve_sentences
 
-    pic, settle, _ = resolve_sentences(sampling_data(bins=100_000))
-    assert "holding M and B = 100,000" in pic and "metrics.bins=auto" not in pic
-    assert settle.startswith("On the 1 relation where PIC's difference is mostly the nulls': the nulls shrink")
+    text = " ".join(resolve_sentences(sampling_data(bins=100_000)))
+    assert "B = 100,000 held" in text and "metrics.bins=auto" not in text

@@ -17,7 +17,7 @@ from taskcomplexity.metrics.pic import auto_bins, pic
 from taskcomplexity.stages.metrics_stage import MetricsSettings
 from taskcomplexity.study_data import Relation
 from taskcomplexity.verdict import information, judge, null_means, summarise, uninformative
-from taskcomplexity.verdict.information import CEILING_MARGIN, null_test
+from taskcomplexity.verdict.information import CEILING_MARGIN, episodes_to_settle, null_test
 
 RELATION = Relation("easy", "hard", "known")
 
@@ -187,3 +187,14 @@ def test_what_the_more_sampling_sentences_say_of_the_histogram_nulls_holds_on_si
     assert held[2][0] > 0.5 * held[0][0] and held[2][0] > 2 * auto[2][0]  # with B held the excess stays
     nulls = [excess_and_null(1000, m, 100)[1] for m in (10, 40)]
     assert nulls[1] < nulls[0] / 2  # and the nulls shrink with more episodes
+
+
+def test_episodes_to_settle_brings_the_nulls_share_to_one_half():
+    for share in (0.55, 0.8, 0.97):
+        settled = episodes_to_settle(share, 50)
+        factor = (50 / settled) ** 0.5  # the nulls scaled as M^-1/2
+        assert factor * share / (1 - share + factor * share) <= 0.5 + 1e-12
+        # one episode fewer leaves the share above one half: M′ is the smallest (rounded up)
+        fewer = (50 / (settled - 1)) ** 0.5
+        assert fewer * share / (1 - share + fewer * share) > 0.5
+    assert np.isnan(episodes_to_settle(0.4, 50)) and np.isnan(episodes_to_settle(1.2, 50))

@@ -4,6 +4,8 @@ Modules
 -------
 beyond
     Beyond the paper: whether each metric the paper's conclusion proposes agrees where PIC and POIC do not.
+budget
+    The next budget: one (N, M, B) that the headline recommends and the full verdict table sizes.
 build
     A study's report from its artefacts: ``index.html``, ``report.md``, ``figures/``, ``tables/``.
 data

@@ -116,15 +116,6 @@ def percent(share: float) -> str:
     return MISSING if not np.isfinite(share) else f"{100 * share:.1f} %"
 
 
-def policies_needed(policies: float) -> str:
-    """An N-to-resolve estimate for a table cell: "≈ 1 700", "> 10⁹" (no difference to resolve), or missing."""
-    if np.isnan(policies):
-        return MISSING
-    if not np.isfinite(policies) or policies > 1e9:
-        return "> 10⁹"
-    return f"≈ {significant_int(policies)}"
-
-
 def significant_int(value: float, digits: int = 2) -> str:
     """An integer rounded to ``digits`` significant digits, with thin-space thousands (1 700, 25 000)."""
     rounded = int(float(f"{value:.{digits}g}")) if value >= 10 ** digits else int(np.ceil(value))

@@ -7,9 +7,9 @@ from collections.abc import Callable
 import numpy as np
 import pandas as pd
 
-from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
+from taskcomplexity.report.budget import budget_sentences
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue, significant_int
+from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue
 from taskcomplexity.report.groups import group_sentences
 from taskcomplexity.report.verdict_tables import survival_tables
 from taskcomplexity.verdict.judge import SURVIVAL
@@ -307,49 +307,20 @@ def survival_sentence(quantity: str, table: pd.DataFrame) -> str:
 
 
 def resolve_sentences(data: StudyData) -> list[str]:
-    """What more sampling would do, per primary metric.
-
-    For relations not significant (on values with information): the N (at this M) at which the Welch test
-    would resolve them, from the verdict's estimate (the batch sd falling as N^-1/2), with what the
-    projection holds (M, and B for a histogram estimator) and, for a metric checked against its nulls, that
-    the nulls move with N too; under ``metrics.bins=auto`` (B = N·M/50 here) B grows with N and the values of
-    a histogram estimator approach their nulls, so the sentence says to hold B. For relations uninformative
-    because the nulls give most of the difference: what settles them (more episodes at a held B; the
-    measure net of the nulls, with its outcomes there). The verdict table gives the estimate of every
-    unresolved relation, uninformative ones included.
-    """
+    """What more sampling would settle: the next budget (:func:`~taskcomplexity.report.budget.budget_sentences`,
+    the same numbers as the full verdict table's last column), then, for a primary metric checked against its
+    nulls, the outcomes of the measure net of those nulls on the relations whose difference is mostly the nulls'."""
     verdict, registry = data.verdict["verdict"], data.registry
-    bins, scale = _bins(data), _scale(data)
-    auto = bins is not None and scale is not None and bins == auto_bins(*scale)
-    sentences = []
+    sentences = budget_sentences(data)
     for metric in (m for m in registry if m.primary):
         check = metric.information
-        nulled = check is not None and bool(check.null) and not check.net_of_null
-        binned = check is not None and check.binned and bins is not None
+        if check is None or not check.null or check.net_of_null:
+            continue
         mine = verdict[verdict["metric"] == metric.name]
-        rows = mine[(mine["outcome"] == "not significant") & np.isfinite(mine["policies_to_resolve"])
-                    & (mine["policies_to_resolve"] > mine["policies"])]
-        if not rows.empty:
-            n = int(rows["policies"].max())
-            needs = sorted(rows["policies_to_resolve"])
-            span = (f"N ≈ {significant_int(needs[0])}" if len(needs) == 1 else
-                    f"N ≈ {significant_int(needs[0])} to {significant_int(needs[-1])}")
-            held = f"M and B = {bins:,}" if binned else "M"
-            sentence = (f"More sampling: {plural(len(rows), 'unresolved relation')} of {metric.label} would be "
-                        f"resolved by Welch's test at {span} policies (now N = {n:,}; holding {held}, assuming the "
-                        "batches' sd falls as N^-1/2 and the difference stays as measured).")
-            if nulled:
-                sentence += (f" That projects the test alone: {metric.label}'s permutation nulls move with N too, and "
-                             "the report does not predict them there.")
-                if binned and auto:
-                    sentence += (f" Under metrics.bins=auto, B = N·M/{RETURNS_PER_BIN} grows with N and "
-                                 f"{metric.label}'s values approach their nulls: hold B (metrics.bins={bins}) to test "
-                                 "these at more N.")
-            sentences.append(sentence)
         mostly = mine[(mine["outcome"] == "uninformative") & mine["informative_easier"].astype(bool)
                       & mine["informative_harder"].astype(bool)]
-        if nulled and not mostly.empty:
-            sentence = _settle_sentence(metric, mostly, verdict, registry, binned=binned, auto=auto)
+        if not mostly.empty:
+            sentence = _net_sentence(metric, mostly, verdict, registry)
             if sentence:
                 sentences.append(sentence)
     return sentences
@@ -359,46 +330,28 @@ _OUTCOME_VERBS = {"agree": "agrees on", "contradict": "contradicts on", "not sig
                   "uninformative": "is uninformative on", "undefined": "is undefined on"}
 
 
-def _settle_sentence(metric, mostly: pd.DataFrame, verdict: pd.DataFrame, registry, *, binned: bool,
-                     auto: bool) -> str:
-    """What settles the relations whose difference is mostly the nulls' (``mostly``: rows of ``metric``)."""
-    pairs = set(zip(mostly["easier"], mostly["harder"], strict=True))
-    where = f"the {plural(len(pairs), 'relation')} where {metric.label}'s difference is mostly the nulls'"
-    parts = []
-    if binned:
-        parts.append("the nulls shrink with more episodes M at a held B")
+def _net_sentence(metric, mostly: pd.DataFrame, verdict: pd.DataFrame, registry) -> str:
+    """How the measure net of ``metric``'s nulls fares on the relations whose difference is mostly the nulls'
+    (``mostly``: rows of ``metric``); empty without such a measure or its rows."""
     net = next((m for m in registry if m.information is not None and m.information.net_of_null
                 and m.information.null == metric.information.null), None)
-    if net is not None:
-        among = np.array([(e, h) in pairs for e, h in zip(verdict["easier"], verdict["harder"], strict=True)],
-                         dtype=bool)
-        rows = verdict[(verdict["metric"] == net.name).to_numpy() & among]
-        if not rows.empty:
-            counts = rows["outcome"].value_counts()
-            said = and_list(f"{verb} {counts[outcome]}" for outcome, verb in _OUTCOME_VERBS.items()
-                            if counts.get(outcome, 0))
-            parts.append(f"{net.label}, net of its nulls, {said} of them")
-    if not parts:
+    if net is None:
         return ""
-    if binned and auto:
-        lead = (f"More policies at metrics.bins=auto do not settle {where} (B grows with N and the values approach "
-                "their nulls)")
-    else:
-        lead = f"On {where}"
-    return f"{lead}: " + "; ".join(parts) + "."
+    pairs = set(zip(mostly["easier"], mostly["harder"], strict=True))
+    among = np.array([(e, h) in pairs for e, h in zip(verdict["easier"], verdict["harder"], strict=True)], dtype=bool)
+    rows = verdict[(verdict["metric"] == net.name).to_numpy() & among]
+    if rows.empty:
+        return ""
+    counts = rows["outcome"].value_counts()
+    said = and_list(f"{verb} {counts[outcome]}" for outcome, verb in _OUTCOME_VERBS.items() if counts.get(outcome, 0))
+    return (f"On the {plural(len(pairs), 'relation')} where {metric.label}'s difference is mostly the nulls', "
+            f"{net.label}, net of its nulls, {said} of them.")
 
 
 def _scale(data: StudyData) -> tuple[int, int] | None:
     """(N, M) of the study's tasks when they share one (None otherwise)."""
     scales = {(int(p), int(e)) for p, e in zip(data.metrics["policies"], data.metrics["episodes"], strict=True)}
     return scales.pop() if len(scales) == 1 else None
-
-
-def _bins(data: StudyData) -> int | None:
-    """The histogram bins B the metrics stage used (None when its artefacts do not say)."""
-    found = {int(r.metrics.manifest.get("config", {}).get("bins", 0)) for r in data.results.values()
-             if getattr(r, "metrics", None) is not None}
-    return found.pop() if len(found) == 1 and 0 not in found else None
 
 
 def replication_sentences(data: StudyData) -> list[str]:

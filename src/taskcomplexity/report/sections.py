@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from taskcomplexity.report import figures as fig
+from taskcomplexity.report.budget import next_budget, shown_size
 from taskcomplexity.report.data import StudyData, return_matrix
 from taskcomplexity.report.format import and_list, joined, num, of_total, plural, slug
 from taskcomplexity.report.groups import group_blocks
@@ -505,10 +506,20 @@ def appendix_section(writer: Writer, data: StudyData) -> Section:
         "the p-value and the reason of ○; the table below "
         "lists them.", tips,
         files=(outcome_words(matrix), "Outcome of every metric on every known relation (Welch's t-test)."))
+    budget = next_budget(data)
+    recommended = ""
+    if budget is not None and budget.changes:
+        held = f" at B = {budget.bins:,}" if budget.bins is not None else ""
+        recommended = (f" The headline's next budget, N = {shown_size(budget.policies)} × M = "
+                       f"{shown_size(budget.episodes)}{held}, is the largest of these sizes of the primary metrics' "
+                       "relations.")
     full = writer.table(verdict_display(data), "verdict", "The full verdict.",
                         "Every (metric, known relation): the two values, the outcome and the p-value of Welch's "
                         "t-test, with the number of samples tested on each side (batches or seeds), the share "
-                        "of the difference that is the difference of the two tasks' permutation nulls, and the N "
-                        "at which Welch's test would resolve a relation left open.", wrap=True)
+                        "of the difference that is the difference of the two tasks' permutation nulls, and what "
+                        "would resolve a relation left open: the N at which Welch's test would resolve a test not "
+                        "significant (at this M and B), or the M at which the nulls' share of a difference that is "
+                        "mostly theirs falls to one half (at this B; a binned estimator's); the headline states "
+                        "the assumptions of both." + recommended, wrap=True)
     return Section("Appendix: the full verdict table", (whole, full))
 

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from taskcomplexity.report.budget import to_resolve
 from taskcomplexity.report.data import StudyData
-from taskcomplexity.report.format import MISSING, num, percent, plural, policies_needed, pvalue
+from taskcomplexity.report.format import MISSING, num, percent, plural, pvalue
 from taskcomplexity.report.labels import kind_label
 from taskcomplexity.report.outcomes import OUTCOME_DISPLAY, UNINFORMATIVE_REASONS, mark, uninformative_reasons
 from taskcomplexity.verdict import by_relation
@@ -137,7 +138,7 @@ def verdict_display(data: StudyData) -> pd.DataFrame:
         "p": verdict["pvalue"].map(pvalue),
         "Samples": [f"{a} vs {b}" for a, b in zip(verdict["samples_easier"], verdict["samples_harder"], strict=True)],
         "Nulls' share of Δ": verdict["null_share_of_difference"].map(percent),
-        "N to resolve": verdict["policies_to_resolve"].map(policies_needed),
+        "To resolve": to_resolve(data).to_numpy(),
     })
 
 

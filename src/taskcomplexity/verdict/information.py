@@ -172,3 +172,34 @@ def null_share_of_difference(easier: float, harder: float, null_easier: float, n
     if not all(map(math.isfinite, (easier, harder, null_easier, null_harder))) or difference == 0:
         return float("nan")
     return (null_easier - null_harder) / difference
+
+
+def episodes_to_settle(share: float, episodes: int, *, limit: float = DIFFERENCE_NULL_SHARE) -> float:
+    """M at which the nulls' share of a relation's difference falls to ``limit``, at a held B.
+
+    Parameters
+    ----------
+    share : float
+        :func:`null_share_of_difference` now, above ``limit``.
+    episodes : int
+        M now.
+    limit : float, default 0.5
+        The share above which the relation is uninformative (:data:`DIFFERENCE_NULL_SHARE`).
+
+    Returns
+    -------
+    float
+        The smallest M′ (rounded up) that brings the share to ``limit``, assuming that at a held B both tasks' nulls
+        fall at least as M^-1/2 (``tests/verdict/test_information.py`` measures 4× the episodes halving a histogram
+        null at least: the plug-in bias of each policy's entropy falls with M) and that the rest of the difference,
+        the excesses over the nulls, stays: with the nulls scaled by f, the share is f·s / (1 − s + f·s), at most
+        ``limit`` when f ≤ limit·(1 − s) / (s·(1 − limit)), and M′ = M / f². NaN when the excesses order the pair
+        the other way (s ≥ 1: shrinking the nulls turns the order, it does not settle it) or ``share`` is not
+        above ``limit``.
+    """
+    limit = check_fraction(limit, "limit")
+    if not (math.isfinite(share) and limit < share < 1):
+        return float("nan")
+    factor = limit * (1 - share) / (share * (1 - limit))
+    # rounded up, but not past a whole M that rounding in the factor leaves a hair below the target
+    return float(math.ceil(episodes / factor**2 - 1e-9))
