@@ -271,3 +271,32 @@ def test_a_reproduced_finding_whose_value_ours_excludes_says_both_in_its_sentenc
     assert ("Finding reproduced, value not at N = 1,000 × M = 1,000: neither the published correlation nor ours is "
             "significant; the published r lies outside our interval over resampled policies and outside Fisher's "
             "interval across the tasks (-0.15 to 0.80).") in sentence.replace("−", "-")
+
+
+def test_a_study_without_sac_budgets_is_advised_its_own_command_never_the_seven_task_targets(pair, tmp_path):
+    from taskcomplexity.stages.declared import STAGES
+
+    _, found = pair
+    missing = {stage.name: stage.missing for stage in STAGES if stage.missing}
+    assert any("make beyond" in text for text in missing.values())  # the stages' own advice, about the 7 tasks
+
+    def page(sac_curves, name):
+        index = build_report(found["results"], study=PAIR, verdict=found["verdict"], diagnostics=None,
+                             sac_curves=sac_curves, out_dir=tmp_path / name, title="Two gym tasks", missing=missing)
+        return parse_text(index)
+
+    # default settings: no sac_steps and no sac.total_steps, so no SAC reference (as the SAC stage logs it)
+    none = page(None, "none")
+    assert ("The study gives no task a SAC budget (sac_steps) and this run no sac.total_steps, so it has no SAC "
+            "reference") in none  # in the SAC section, and as section 4's way to SAC
+    assert "(SAC: the study gives no task a SAC budget" in none
+    # experiment=quick: sac.total_steps trains every task; the report gives this run's own command
+    curves = pd.DataFrame(columns=["task", "variant", "seed", "env_step", "eval/return_mean"])
+    curves.attrs.update(sac_command="pipelines/study.py study=pair experiment=quick sac.enabled=true",
+                        sac_missing=["pend"])
+    quick = page(curves, "quick")
+    assert ("Compute the curves with `pipelines/study.py study=pair experiment=quick sac.enabled=true`; the study "
+            "gives no task a SAC budget (sac_steps), so SAC trains every task for this run's sac.total_steps") in quick
+    assert "(SAC: `pipelines/study.py study=pair experiment=quick sac.enabled=true`" in quick  # section 4 too
+    for text in (none, quick):
+        assert "make beyond" not in text and "make paper" not in text

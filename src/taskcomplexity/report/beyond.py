@@ -51,10 +51,16 @@ def left_open(verdict: pd.DataFrame, primary: list[str]) -> pd.DataFrame:
     return relations[~agreed].reset_index(drop=True)
 
 
-def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None = None) -> list[str]:
+SAC_ADVICE = " (SAC on: "
+"""Where a stage's record starts its general advice on running SAC, which the report replaces with this study's
+way to SAC (:func:`taskcomplexity.report.sections.sac_way`)."""
+
+
+def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None = None, *, sac: str = "") -> list[str]:
     """Where PIC and POIC leave the known relations open, then one sentence per proposed metric.
 
-    ``missing``: stage → what it needs, said of a metric of that stage none of whose values was computed.
+    ``missing``: stage → what it needs, said of a metric of that stage none of whose values was computed. ``sac``:
+    this study's way to SAC's curves (its own command), said in place of a stage's general advice on running SAC.
     """
     registry, verdict = data.registry, data.verdict["verdict"]
     proposed = [m for m in registry if m.family == BEYOND]
@@ -78,7 +84,10 @@ def open_question_sentences(data: StudyData, missing: Mapping[str, str] | None =
     absent: dict[str, list[str]] = {}  # what a stage needs → the proposed metrics it would have computed
     for metric in proposed:
         if not (verdict["metric"] == metric.name).any():
-            absent.setdefault((missing or {}).get(metric.stage) or NOT_RUN, []).append(metric.label)
+            needs = (missing or {}).get(metric.stage) or NOT_RUN
+            if sac and SAC_ADVICE in needs:
+                needs = needs.split(SAC_ADVICE, 1)[0] + f" (SAC: {sac})"
+            absent.setdefault(needs, []).append(metric.label)
     for needs, labels in absent.items():
         listed = and_list(labels)
         verb = "was" if len(labels) == 1 else "were"
@@ -125,16 +134,16 @@ def proposed_values(data: StudyData, metrics: list[str]) -> pd.DataFrame:
 
 
 def beyond_section(writer: Writer, data: StudyData, paths: Mapping[str, pd.DataFrame] | None = None,
-                   missing: Mapping[str, str] | None = None) -> Section | None:
+                   missing: Mapping[str, str] | None = None, *, sac: str = "") -> Section | None:
     """The answer to the paper's open question, one sentence per proposed metric (None: none is registered).
 
     ``paths``: task id → the ``path.parquet`` of its learning-path artefact (its figure; none: no figure).
-    ``missing``: stage → what it needs (:func:`open_question_sentences`).
+    ``missing``, ``sac``: what each stage needs, and this study's way to SAC (:func:`open_question_sentences`).
     """
     proposed = [m for m in data.registry if m.family == BEYOND]
     if not proposed or data.verdict["verdict"].empty:
         return None
-    blocks = [Paragraph(" ".join(open_question_sentences(data, missing)))]
+    blocks = [Paragraph(" ".join(open_question_sentences(data, missing, sac=sac)))]
     verdict = data.verdict["verdict"]
     computed = [m.name for m in proposed if (verdict["metric"] == m.name).any()]
     blocks += [Paragraph(f"{m.label}: {direction(m)} ({m.why}).") for m in proposed if m.name in computed]

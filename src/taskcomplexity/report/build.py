@@ -148,7 +148,7 @@ def build_report(
         sections.diagnostics_section(writer, data),
     ]
     paths = {t: pd.read_parquet(a.file("path.parquet")) for t, a in (further or {}).get("learning_path", {}).items()}
-    beyond = beyond_section(writer, data, paths, missing)
+    beyond = beyond_section(writer, data, paths, missing, sac=sections.sac_way(data, sac_curves))
     if beyond is not None:
         page_sections.append(beyond)
     if ablation:

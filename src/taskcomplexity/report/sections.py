@@ -308,19 +308,45 @@ def bootstrap_block(writer: Writer, data: StudyData, bootstrapped) -> FigureBloc
     )
 
 
+NO_SAC_BUDGET = "the study gives no task a SAC budget (sac_steps)"
+"""Why a study has no SAC reference, or trains SAC for the run's ``sac.total_steps``."""
+NO_SAC_REFERENCE = (f"{NO_SAC_BUDGET} and this run no sac.total_steps, so it has no SAC reference: give its tasks "
+                    "sac_steps, or add sac.total_steps=<env steps> sac.enabled=true to this run's command to train "
+                    "every task for that many steps")
+"""What the report says of SAC for a study without SAC budgets whose run set no ``sac.total_steps``."""
+
+
+def sac_way(data: StudyData, sac_curves: pd.DataFrame | None) -> str:
+    """How this study gets its SAC curves, as the report advises it (empty when the report cannot say).
+
+    The run's own command with ``sac.enabled=true`` (``curves.attrs["sac_command"]``, its overrides kept), noting
+    that a study without SAC budgets then trains every task for the run's ``sac.total_steps``; or, for such a study
+    whose run set none, that it has no SAC reference and what would give it one.
+    """
+    command = (sac_curves.attrs if sac_curves is not None else {}).get("sac_command")
+    if command:
+        return f"`{command}`" + ("" if data.study.has_sac_budgets else
+                                 f"; {NO_SAC_BUDGET}, so SAC trains every task for this run's sac.total_steps")
+    if sac_curves is None and data.study.kind != "variants" and not data.study.has_sac_budgets:
+        return NO_SAC_REFERENCE
+    return ""
+
+
 def sac_section(writer: Writer, data: StudyData, sac_curves: pd.DataFrame | None) -> Section:
     """The empirical order: SAC learning curves and their summary (or why there are none)."""
     title = "Empirical difficulty: SAC"
     attrs = sac_curves.attrs if sac_curves is not None else {}
     command, missing = attrs.get("sac_command"), attrs.get("sac_missing") or []
     how = (f"SAC was not trained in this run (sac.enabled=false). Compute the "
-           f"curves with `{command}`; this report's command then shows them from the cache. ")
+           f"curves with {sac_way(data, sac_curves)}; this report's command then shows them from the cache. ")
     if sac_curves is None or sac_curves.empty or data.sac_per_seed is None or data.sac_per_seed.empty:
         skipped = attrs.get("sac_skipped") or {}
         why = ("SAC was skipped for " + "; ".join(f"{data.name(t)} ({r})" for t, r in skipped.items()) + ". "
                if skipped else "")
         if command:
             why += how + "Until then, "
+        elif sac_way(data, sac_curves) == NO_SAC_REFERENCE:
+            why += NO_SAC_REFERENCE[:1].upper() + NO_SAC_REFERENCE[1:] + ". So "
         elif not skipped:
             why += "SAC curves were not computed for this report, so "
         return Section(title, (Paragraph(why + "the known complexity order is checked against the random-policy "
