@@ -59,7 +59,8 @@ def scale_banner(data) -> str | None:
         return None
     return (f"These numbers are at {here}, not at the scale of {published.source} (N = {published.policies:,}, "
             f"M = {published.episodes:,}, B = {published.bins:,}). PIC's histogram estimator depends on N, M and B, "
-            "so its values here are not comparable with that table; experiment=published (make run) computes them "
+            f"so its values here are not comparable with that table; study.policies={published.policies} "
+            f"study.episodes={published.episodes} metrics.bins={published.bins} on this study's command compute them "
             "at that scale.")
 
 
