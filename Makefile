@@ -10,8 +10,18 @@ TORCH := torch==2.13.0
 .DEFAULT_GOAL := help
 .PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost manipulation manipulation-cost manipulation-cluster test-manipulation atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
+# One column of names as wide as the longest, the descriptions wrapped to the terminal under their own column.
 help: ## list the targets
-	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-12s %s\n", $$1, $$2}'
+	@grep -E '^[a-z0-9-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' -v cols="$$(tput cols 2>/dev/null || echo 100)" ' \
+		{ name[NR] = $$1; text[NR] = $$2; if (length($$1) > width) width = length($$1) } \
+		END { indent = width + 9; if (cols < indent + 30) cols = indent + 30; \
+		      for (i = 1; i <= NR; i++) { \
+		        out = sprintf("  make %-" width "s  ", name[i]); at = indent; n = split(text[i], word, " "); \
+		        for (j = 1; j <= n; j++) { \
+		          if (at > indent && at + 1 + length(word[j]) > cols) { out = out "\n" sprintf("%" indent "s", ""); at = indent } \
+		          else if (at > indent) { out = out " "; at++ } \
+		          out = out word[j]; at += length(word[j]) } \
+		        print out } }'
 
 $(STAMP): pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
