@@ -88,6 +88,7 @@ def test_two_runs_whose_numbers_differ_keep_two_reports_and_the_index_lists_both
     assert "B = 500" in (second.parent / "report.md").read_text()
     assert "B = 1,000" in (index.parent / "report.md").read_text()
     listing = (reports / "index.html").read_text()
+    assert "N = 10, M = 4, B = 500; no SAC" in listing  # SAC is off in this study: its index says so
     assert f"seven_tasks-smoke/{index.parent.name}/index.html" in listing
     assert f"seven_tasks-smoke/{second.parent.name}/index.html" in listing
     latest = (reports / "seven_tasks-smoke" / "index.html").read_text()

@@ -164,5 +164,5 @@ def build_report(
     (writer.out_dir / "report.md").write_text(render_markdown(document), encoding="utf-8")
     write_summary(writer.out_dir, title=title, headline=document.headline, tasks=len(data.tasks), policies=n,
                   episodes=m, bins=int(data.results[data.tasks[0]].metrics.manifest.get("config", {}).get("bins", 0)),
-                  sac=sac_curves is not None)
+                  sac=sac_curves is not None and not sac_curves.empty)
     return write_html(document, writer.out_dir / "index.html")
