@@ -170,19 +170,26 @@ def check_resets(task: Task, env: gymnasium.Env, seed: int) -> None:
 
 
 def check_steps(task: Task, env: gymnasium.Env, seed: int) -> None:
-    """Two replays of the same short episodes (same reset seeds, same actions) give exactly the same
+    """Two replays of the same whole episodes (same reset seeds, same actions) give exactly the same
     observations, rewards and end flags: else the env's steps draw random numbers its seed does not fix."""
-    first, again = replay(task, env, seed), replay(task, env, seed)
+    refuse_differences(task, replay(task, env, seed), replay(task, env, seed), "",
+                       "does the env draw random numbers outside its seeded generator self.np_random, or keep state "
+                       "its reset does not restore?")
+
+
+def refuse_differences(task: Task, first: list, again: list, on: str, cause: str) -> None:
+    """Refuse, naming the episode, the step and what differs, two replays of the check episodes (``first`` and
+    ``again``, as :func:`replay` gives them) that differ; ``on``: where they ran (" on backend=…" or ""), ``cause``:
+    the question the message asks of the env."""
     for (reset_seed, one), (_, other) in zip(first, again, strict=True):
         difference = first_difference(one, other)
         if difference is not None:
             step, what = difference
             at = "at reset" if step == 0 else f"at step {step}"
             raise EnvContractError(
-                f"task.env_id={task.env_id} is not reproducible: two replays of the episode reset with seed "
-                f"{reset_seed}, with the same actions, gave a different {what} {at} (does the env draw random "
-                f"numbers outside its seeded generator self.np_random, or keep state its reset does not restore?), "
-                f"so the cache cannot serve its returns")
+                f"task.env_id={task.env_id} is not reproducible{on}: two replays of the episode reset with seed "
+                f"{reset_seed}, with the same actions, gave a different {what} {at} ({cause}), so the cache cannot "
+                f"serve its returns")
 
 
 def replay(task: Task, env: gymnasium.Env, seed: int) -> list[tuple[int, list[dict]]]:
@@ -221,16 +228,8 @@ def check_vector_env(task: Task, seed: int) -> None:
         first, again = replay_vector(task, env, seed), replay_vector(task, env, seed)
     finally:
         env.close()
-    for (reset_seed, one), (_, other) in zip(first, again, strict=True):
-        difference = first_difference(one, other)
-        if difference is not None:
-            step, what = difference
-            at = "at reset" if step == 0 else f"at step {step}"
-            raise EnvContractError(
-                f"task.env_id={task.env_id} is not reproducible on backend=vector: two replays of the episode reset "
-                f"with seed {reset_seed}, with the same actions, gave a different {what} {at} (does the vector env "
-                f"draw random numbers outside the generators its reset(seed=[…]) seeds?), so the cache cannot serve "
-                f"its returns")
+    refuse_differences(task, first, again, " on backend=vector",
+                       "does the vector env draw random numbers outside the generators its reset(seed=[…]) seeds?")
 
 
 def replay_vector(task: Task, env, seed: int) -> list[tuple[int, list[dict]]]:
