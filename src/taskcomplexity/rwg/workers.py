@@ -60,7 +60,7 @@ def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: 
     called in this process as each finishes (in the order they finish). An error in a worker (an env check's
     refusal, a bug) cancels the chunks not started, lets the running ones finish and hands them to ``done`` (so
     nothing computed is lost), then is raised here. A worker that dies (killed, out of memory) is one
-    :class:`~taskcomplexity.processes.WorkerLost` naming the chunks saved; an interrupt (Ctrl-C, ``SIGTERM``) stops
+    :class:`~taskcomplexity.errors.WorkerLost` naming the chunks saved; an interrupt (Ctrl-C, ``SIGTERM``) stops
     the workers at once (:func:`~taskcomplexity.processes.stop_pool`): the chunks they held are computed again by
     the rerun."""
     context = multiprocessing.get_context()
