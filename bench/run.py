@@ -50,6 +50,7 @@ QUICK: dict[str, list[str]] = {
     "bench_rwg": ["--one-task", "--policies", "1000", "--episodes", "100", "--chunk-policies", "50",
                   "--repeats", "1"],
     "bench_sac": ["--steps", "300", "--no-concurrent"],
+    "bench_startup": ["--repeats", "5"],
     "bench_study": ["--policies", "200", "--episodes", "20", "--resamples", "20"],
 }
 """Each script's small budget for ``--quick``: the same measurements on less work (their ratios are noisier)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 
+import numba
 import numpy as np
 import pytest
 import torch
@@ -172,7 +173,7 @@ def test_the_family_keys_the_returns_and_leaves_the_mlp_keys_alone():
 @pytest.mark.parametrize("arm", ["one_link_1m0", "two_link"])
 def test_a_large_batch_split_over_threads_gets_the_same_actions_bit_for_bit(arm, monkeypatch):
     """respond splits a large batch over policies, one part per thread: every number as on one thread."""
-    from taskcomplexity.policies import primitives
+    from taskcomplexity.policies import primitives  # respond reads numba's thread count when it runs
 
     task = make_task(arm, "dense")
     policies, episodes = 7, 40
@@ -180,7 +181,7 @@ def test_a_large_batch_split_over_threads_gets_the_same_actions_bit_for_bit(arm,
     q, target = initial_states(task, 5, np.arange(policies), episodes)
 
     def run(threads: int, per_thread: int):
-        monkeypatch.setattr(primitives.numba, "get_num_threads", lambda: threads)
+        monkeypatch.setattr(numba, "get_num_threads", lambda: threads)
         monkeypatch.setattr(primitives, "PARALLEL_ENVIRONMENTS", per_thread)
         env = BatchedReaching(task, policies * episodes)
         obs = env.reset(torch.from_numpy(q.reshape(policies * episodes, -1)), torch.from_numpy(target.reshape(-1, 2)))

@@ -1,7 +1,9 @@
 """taskcomplexity: how hard is this task, and can we trust the metric that says so?
 
 Importing the package registers the reaching task of every arm preset (``conf/arm/``) with each reward
-it allows with gymnasium, e.g. ``gymnasium.make("taskcomplexity/TwoLink-Sparse-v0")``.
+it allows with gymnasium, e.g. ``gymnasium.make("taskcomplexity/TwoLink-Sparse-v0")``: at once when gymnasium is
+imported already, else as soon as it is (:mod:`taskcomplexity.post_import`). Importing the package imports neither
+gymnasium nor any other heavy library: each module loads its libraries when it needs them.
 
 Data flows one way: config → task → returns → metrics → verdict → report; SAC's curves join at the verdict.
 
@@ -17,12 +19,16 @@ cores
     The CPUs this process may run on (how many workers "one per core" is; within a SLURM job, its allocation).
 errors
     Exceptions the library raises; entry points turn them into one readable line and a non-zero exit.
+extras
+    The optional extras and the pip command that installs one (the end of the line refusing a task without it).
 jobs
     Which job computed an artefact (scheduler, job id, node, CPU): the manifests' ``jobs`` records.
 metrics
     The estimators on a return matrix (statistics, PIC, POIC, bootstrap, Welch, diagnostics) and their registry.
 policies
     The random policy families (MLPs and movement primitives) and their weight priors.
+post_import
+    Post-import hooks: a function called once a module is imported, without importing it.
 processes
     Worker processes that end with their run: started, quieted and stopped in one place.
 progress
@@ -47,11 +53,37 @@ verdict
     The study's known relations × the registry's metrics → outcomes, with the information check.
 """
 
-from taskcomplexity.tasks.registration import gym_ids, register_tasks
-from taskcomplexity.tasks.spec import make_task, preset_tasks, task_from_id
+from typing import TYPE_CHECKING
+
+from taskcomplexity.post_import import when_imported
+
+if TYPE_CHECKING:
+    from taskcomplexity.tasks.registration import gym_ids
+    from taskcomplexity.tasks.spec import make_task, preset_tasks, task_from_id
 
 __version__ = "0.1.0"
 
-register_tasks()
+_EXPORTS = {"gym_ids": "tasks.registration", "make_task": "tasks.spec", "preset_tasks": "tasks.spec",
+            "task_from_id": "tasks.spec"}
+"""The names the package exports → their modules, imported on first use (PEP 562)."""
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def _register(gymnasium) -> None:
+    from taskcomplexity.tasks.registration import register_tasks
+
+    register_tasks()
+
+
+when_imported("gymnasium", _register)
 
 __all__ = ["__version__", "gym_ids", "make_task", "preset_tasks", "task_from_id"]

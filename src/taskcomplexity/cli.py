@@ -9,6 +9,7 @@ is read once, by :mod:`taskcomplexity.study.plan`.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import functools
 import logging
@@ -83,11 +84,13 @@ def search_dirs(argv: list[str], conf_dir: Path = CONF_DIR) -> list[Path]:
     return dirs
 
 
-def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
+def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR, *, compose: bool = True) -> None:
     """Refuse ``group=option`` overrides whose option file does not exist, naming the allowed ones.
 
     Options are looked up in the packaged configs and in the directories a ``hydra.searchpath``
-    override adds (a researcher's own studies and task presets).
+    override adds (a researcher's own studies and task presets). ``compose``: also compose the config
+    (:func:`unknown_keys`); an entry point leaves that to Hydra's own composition instead
+    (:func:`composition_errors`), so that a command composes its config no more often than Hydra does.
     """
     dirs = search_dirs(argv, conf_dir)
     groups = config_groups(conf_dir)
@@ -108,9 +111,56 @@ def check_overrides(argv: list[str], conf_dir: Path = CONF_DIR) -> None:
                 continue
             if option not in allowed:
                 fail(f"{name}={option} is not a known option (allowed: {', '.join(allowed)})")
-    problem = unknown_keys(argv, dirs)
+    problem = unknown_keys(argv, dirs) if compose else refused_additions(argv)
     if problem:
         fail(problem)
+
+
+FULL_ERROR = "HYDRA_FULL_ERROR"
+"""Hydra's switch: set to ``1``, Hydra raises the errors it would print (and so does :func:`one_line_errors`)."""
+TYPED_FULL_ERROR = "TASKCOMPLEXITY_TYPED_HYDRA_FULL_ERROR"
+"""Where :func:`composition_errors` keeps the user's own ``HYDRA_FULL_ERROR`` while Hydra composes (inherited by a
+multirun's job processes, which give it back with :func:`typed_full_error`)."""
+
+
+@contextlib.contextmanager
+def composition_errors(argv: list[str], conf_dir: Path = CONF_DIR):
+    """Hydra's app inside the block: an error of Hydra composing the config ends in one line and exit 2.
+
+    While Hydra composes, ``HYDRA_FULL_ERROR=1`` makes it raise the error instead of printing it over several
+    lines; the line is :func:`unknown_keys`' (the key no stage reads, with the keys allowed beside it), else the
+    error's own message. The task function gives the user's own value back first (:func:`typed_full_error`), so
+    what it raises is reported as before; a user's ``HYDRA_FULL_ERROR=1`` keeps every traceback.
+    """
+    from hydra.errors import HydraException
+    from omegaconf.errors import OmegaConfBaseException
+
+    typed = os.environ.get(FULL_ERROR)
+    os.environ[TYPED_FULL_ERROR] = typed or ""
+    os.environ[FULL_ERROR] = "1"
+    try:
+        yield
+    except (HydraException, OmegaConfBaseException, yaml.YAMLError) as err:
+        typed_full_error()
+        if typed == "1":
+            raise
+        if isinstance(err, yaml.YAMLError) or isinstance(err.__cause__, yaml.YAMLError):
+            fail(invalid_yaml(err if isinstance(err, yaml.YAMLError) else err.__cause__))
+        fail(unknown_keys(argv, search_dirs(argv, conf_dir)) or " ".join(str(err).split()))
+    finally:
+        typed_full_error()
+
+
+def typed_full_error() -> None:
+    """Give ``HYDRA_FULL_ERROR`` back the value the user typed (:func:`composition_errors` set it while Hydra
+    composed); nothing outside that block."""
+    if TYPED_FULL_ERROR not in os.environ:
+        return
+    typed = os.environ.pop(TYPED_FULL_ERROR)
+    if typed:
+        os.environ[FULL_ERROR] = typed
+    else:
+        os.environ.pop(FULL_ERROR, None)
 
 
 CONFIG_FLAGS = {"--config-name": "name", "-cn": "name", "--config-path": "path", "-cp": "path",
@@ -188,6 +238,96 @@ FREE_FORM = ("task.kwargs", "study.reference", "study.algorithm_scores", "study.
 study checks its own (every id must be a task of the study)."""
 
 
+HELP_FLAGS = ("--help", "-h")
+"""Hydra's flags for an app's help (``--hydra-help`` is Hydra's own, and Hydra answers it)."""
+
+
+def app_help(argv: list[str], job_name: str, conf_dir: Path = CONF_DIR) -> str | None:
+    """An entry point's ``--help`` as Hydra writes it, from one composition of the config, or None when Hydra should
+    answer (the help template asks for Hydra's flags or its own config groups).
+
+    Hydra fills its help template (``hydra.help``: the app's config groups and options, then the config composed
+    with the typed overrides) by listing every group through a fresh copy of its config repository, about a second
+    of CPU for this package's configs; the groups here are the directories of the search path Hydra starts with
+    (the packaged configs and ``--config-dir``; a ``hydra.searchpath`` override reaches the config, not the list),
+    their options the YAML files in them, as Hydra lists them. ``--config-name`` and ``--resolve`` are honoured.
+    """
+    import copy
+    import string
+
+    from hydra import compose, initialize_config_dir
+    from hydra.errors import HydraException
+    from omegaconf import flag_override
+    from omegaconf.errors import OmegaConfBaseException
+
+    flags = config_flags(argv)
+    if "path" in flags:  # another primary config directory: Hydra resolves it
+        return None
+    added = [Path(flags["dir"][1]).resolve()] if "dir" in flags else []
+    dirs = search_dirs(argv, conf_dir) + added
+    chosen = typed_overrides(argv)
+    if isinstance(chosen, str):
+        fail(chosen)
+    name = flags["name"][1] if "name" in flags else "config"
+    try:
+        with initialize_config_dir(config_dir=str(dirs[0]), job_name=job_name, version_base="1.3"):
+            cfg = compose(name, overrides=[o.input_line for o in chosen], return_hydra_config=True)
+        template = str(cfg.hydra.help.template)
+    except yaml.YAMLError as err:
+        fail(invalid_yaml(err))
+    except (HydraException, OmegaConfBaseException) as err:
+        cause = err.__cause__ if isinstance(err.__cause__, yaml.YAMLError) else None
+        fail(invalid_yaml(cause) if cause else unknown_keys(argv, dirs) or " ".join(str(err).split()))
+    if any(f"${key}" in template or f"${{{key}}}" in template for key in ("FLAGS_HELP", "HYDRA_CONFIG_GROUPS")):
+        return None
+    job = copy.deepcopy(cfg)
+    with flag_override(job, ["struct", "readonly"], [False, False]):
+        del job["hydra"]
+    return string.Template(template).substitute(
+        APP_CONFIG_GROUPS=app_config_groups([conf_dir, *added]),  # Hydra lists its search path as it started
+        CONFIG=OmegaConf.to_yaml(job, resolve="--resolve" in argv),
+    )
+
+
+def app_config_groups(dirs: list[Path]) -> str:
+    """The app's config groups, one line each (``group: option, option, …``, sorted), as Hydra's help lists them:
+    every directory of the search path that holds a YAML file, nested ones as ``group/sub``, but Hydra's own."""
+    groups: dict[str, set[str]] = {}
+    for root in dirs:
+        for path in root.rglob("*.yaml"):
+            group = path.parent.relative_to(root).as_posix()
+            if group != "." and group.split("/")[0] != "hydra":
+                groups.setdefault(group, set()).add(path.stem)
+    return "".join(f"{group}: {', '.join(sorted(groups[group]))}\n" for group in sorted(groups))
+
+
+def typed_overrides(argv: list[str]):
+    """The overrides of ``argv`` as Hydra parses them, but its sweeps; or the one line of a parse error."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    lines = [a for a in argv[1:] if "=" in a and not a.startswith("-")]
+    try:
+        parsed = OverridesParser.create().parse_overrides(lines)
+    except HydraException as err:
+        return " ".join(str(err).split())
+    return [o for o in parsed if not o.is_sweep_override()]
+
+
+def refused_additions(argv: list[str]) -> str | None:
+    """One line for an override that does not parse, or for a ``+key`` outside the free-form nodes
+    (:data:`FREE_FORM`: Hydra would add a key no stage reads), else None; composes nothing."""
+    chosen = typed_overrides(argv)
+    if isinstance(chosen, str):
+        return chosen
+    for override in chosen:
+        key = override.key_or_group
+        if override.is_add() and not any(key.startswith(f"{node}.") for node in FREE_FORM):
+            return (f"{override.input_line}: {key} is not a key any stage reads ('+' adds keys only to "
+                    f"{', '.join(FREE_FORM)}; remove it or check its spelling)")
+    return None
+
+
 def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
     """One line naming the first override that sets a key no stage reads, or None.
 
@@ -197,21 +337,13 @@ def unknown_keys(argv: list[str], dirs: list[Path]) -> str | None:
     """
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
-    from hydra.core.override_parser.overrides_parser import OverridesParser
     from hydra.errors import HydraException
     from omegaconf.errors import OmegaConfBaseException
 
-    lines = [a for a in argv[1:] if "=" in a and not a.startswith("-")]
-    try:
-        parsed = OverridesParser.create().parse_overrides(lines)
-    except HydraException as err:
-        return " ".join(str(err).split())
-    chosen = [o for o in parsed if not o.is_sweep_override()]
-    for override in chosen:
-        key = override.key_or_group
-        if override.is_add() and not any(key.startswith(f"{node}.") for node in FREE_FORM):
-            return (f"{override.input_line}: {key} is not a key any stage reads ('+' adds keys only to "
-                    f"{', '.join(FREE_FORM)}; remove it or check its spelling)")
+    problem = refused_additions(argv)
+    if problem:
+        return problem
+    chosen = typed_overrides(argv)
     searchpath = [o.input_line for o in chosen if o.key_or_group == "hydra.searchpath"]
     settings = [o.input_line for o in chosen if not o.key_or_group.startswith("hydra")]
     if GlobalHydra.instance().is_initialized():

@@ -25,14 +25,14 @@ STAGES = sorted(p.stem.removesuffix("_stage") for p in STAGES_DIR.glob("*_stage.
 
 GLUE = frozenset({
     "taskcomplexity", "tasks", "metrics", "rl", "verdict", "policies",  # packages that re-export
-    "config", "cores", "errors", "extras", "jobs", "progress", "policies.families", "study_data", "tasks.quiet", "tasks.registration",
+    "config", "cores", "errors", "extras", "jobs", "post_import", "progress", "policies.families", "study_data", "tasks.quiet", "tasks.registration",
     "rwg.workers",  # where the gym backend's chunks run: each chunk's returns are those of one process
     "rwg.env_checks", "metrics._validation", "rl.checkpoint", "rl.collectors", "stages.cache", "stages.keys", "stages.resources",
     "stages.stage_log", "stages.actor_stages",
     "stages", "stages.stage", "stages.declared", "stages.task_artefacts",  # the stages' records and their loops
 })
 """Modules in a stage's reach that compute none of its numbers: configuration and validation, logging and
-progress, the cache and the up-front resource checks, the jobs' provenance records, the machine's cores and the worker processes, checkpoint files, the gymnasium registration, the pip command of an optional extra, the studies' data, the stages' records
+progress, the cache and the up-front resource checks, the jobs' provenance records, the machine's cores and the worker processes, checkpoint files, the gymnasium registration and the post-import hook that runs it, the pip command of an optional extra, the studies' data, the stages' records
 (the verdict reads which stages it judges from them)."""
 
 INPUTS = {stage.name: stage.inputs for stage in CHAIN}

@@ -66,7 +66,9 @@ def entry_point(run):
 
     ``main()`` refuses a bad ``group=option`` override in one line (before Hydra parses the command
     line), then runs ``run`` as a Hydra app over the packaged configs, announcing numba's compilations
-    (:mod:`taskcomplexity.commands.compilation`). Hydra names the job (and its
+    (:mod:`taskcomplexity.commands.compilation`); an error of Hydra composing the config is one line too
+    (:func:`taskcomplexity.cli.composition_errors`), and ``--help`` is Hydra's help from one composition
+    (:func:`taskcomplexity.cli.app_help`). Hydra names the job (and its
     log file) after ``run``'s module: ``rwg``, ``metrics``, ``sac``, ``verdict``, ``study``.
     """
     import functools
@@ -74,19 +76,28 @@ def entry_point(run):
 
     import hydra
 
-    from taskcomplexity.cli import CONF_DIR, check_overrides
-    from taskcomplexity.commands.compilation import announce_compilation
+    from taskcomplexity.cli import CONF_DIR, HELP_FLAGS, app_help, check_overrides, composition_errors, typed_full_error
 
     @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
     @functools.wraps(run)
     def app(cfg) -> None:
+        from taskcomplexity.commands.compilation import announce_compilation
+
+        typed_full_error()  # the task's own errors are reported as the user asked
         job_threads()
         with announce_compilation():
             run(cfg)
 
     def main() -> None:
-        check_overrides(sys.argv)
-        app()
+        if any(flag in sys.argv[1:] for flag in HELP_FLAGS):
+            text = app_help(sys.argv, run.__module__.rpartition(".")[2])
+            if text is not None:
+                print(text)
+                return
+        check_overrides(sys.argv, compose=False)
+        with composition_errors(sys.argv):
+            app()
 
     main.__doc__ = f"The console script of :mod:`{run.__module__}` (and its shim under ``pipelines/``)."
+    main.hydra_app = app  # Hydra's own app, as `main` runs it after its checks (tests compare the two)
     return main

@@ -6,10 +6,12 @@ folders beside the sources); later processes load it in milliseconds until the k
 How long a compilation takes depends on the machine and on what else runs on it, so nothing here promises a
 duration: each kernel set (:data:`KERNEL_SETS`) says when it starts compiling and, once done, how long it took.
 
-:class:`CompilationLog` listens to numba's ``numba:compile`` event, which numba fires only on a cache miss (a
-real compilation, never a load from disk). A set's compilations that follow one another are one burst: one
-line when it starts, one when it ends (when another set starts compiling, or when no compilation has started
-for :data:`SETTLE_SECONDS`). The run log gets the totals per set when the run ends.
+:class:`CompilationLog` hears numba's ``numba:compile`` event, which numba fires only on a cache miss (a
+real compilation, never a load from disk); :func:`announce_compilation` listens from the moment numba is imported
+(:func:`taskcomplexity.post_import.when_imported`), so a run that needs no kernel does not import numba for it.
+A set's compilations that follow one another are one burst: one line when it starts, one when it ends (when
+another set starts compiling, or when no compilation has started for :data:`SETTLE_SECONDS`). The run log gets
+the totals per set when the run ends.
 
 ``python -m taskcomplexity.commands.compilation`` (run by ``make install``) compiles every kernel set ahead:
 it runs the first calls of the stages that ``make run``, ``make quick`` and ``make classic`` run, at a tiny
@@ -26,9 +28,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from numba.core import event
-
-from taskcomplexity.report.format import plural
+from taskcomplexity.post_import import cancel, when_imported
 
 log = logging.getLogger(__name__)
 
@@ -77,8 +77,9 @@ def kernel_set(module: str, sets: tuple[tuple[str, str], ...] = KERNEL_SETS) -> 
     return module.split(".")[0]
 
 
-class CompilationLog(event.Listener):
-    """numba's ``numba:compile`` events of one run, announced and timed per kernel set.
+class CompilationLog:
+    """numba's ``numba:compile`` events of one run, announced and timed per kernel set (:func:`announce_compilation`
+    forwards them).
 
     Parameters
     ----------
@@ -180,6 +181,8 @@ class CompilationLog(event.Listener):
 
     def summary(self) -> str | None:
         """One line on what was compiled in the run (None if nothing was)."""
+        from taskcomplexity.report.format import plural
+
         if not self.kernels:
             return None
         sets = ", ".join(f"{name} {n} in {s:.1f} s" for name, (n, s) in self.per_set.items())
@@ -196,17 +199,39 @@ def announce_compilation(write: Callable[[str], None] | None = None, *,
     ``write`` prints a line (default: ``tqdm.write``, which keeps open progress bars intact); ``sets`` and
     ``settle`` as :class:`CompilationLog` takes them.
     """
-    from tqdm.auto import tqdm
+    def write_line(line: str) -> None:
+        from tqdm.auto import tqdm
 
-    compiled = CompilationLog(write or (lambda line: tqdm.write(line)), sets=sets, settle=settle)
-    with event.install_listener("numba:compile", compiled):
-        try:
-            yield compiled
-        finally:
-            compiled.close()
-            line = compiled.summary()
-            if line:
-                log.debug(line)
+        tqdm.write(line)
+
+    compiled = CompilationLog(write or write_line, sets=sets, settle=settle)
+    installed = []
+
+    def listen(numba) -> None:  # once numba is imported: a run that never imports it compiles nothing
+        from numba.core import event
+
+        class Forward(event.Listener):
+            def on_start(self, event) -> None:
+                compiled.on_start(event)
+
+            def on_end(self, event) -> None:
+                compiled.on_end(event)
+
+        listener = Forward()
+        event.register("numba:compile", listener)
+        installed.append((event, listener))
+
+    when_imported("numba", listen)
+    try:
+        yield compiled
+    finally:
+        cancel("numba", listen)
+        for event, listener in installed:
+            event.unregister("numba:compile", listener)
+        compiled.close()
+        line = compiled.summary()
+        if line:
+            log.debug(line)
 
 
 def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
@@ -247,6 +272,8 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
 def main() -> None:
     """``python -m taskcomplexity.commands.compilation``: :func:`warm_up`, then one line on what it did."""
     import warnings
+
+    from taskcomplexity.report.format import plural
 
     logging.basicConfig(level=logging.WARNING)
     # The classic-control protocol's CartPole-v0 is chosen, not stale (as in the tests' filter, pyproject.toml).

@@ -177,11 +177,11 @@ def _launcher_limit(cfg: DictConfig) -> tuple[float, int] | None:
 
 def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
     """Price every task of the composed study and print the table, the total and the shard advice."""
-    from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
     from taskcomplexity.study.plan import refuse_entry, study_requests
 
     refuse_entry(cfg)
     entries = study_requests(cfg)
+    from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
     cores = usable_cores()
     costs = []
     for entry, request in entries:

@@ -20,7 +20,6 @@ from taskcomplexity.commands import entry_point
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
 from taskcomplexity.stages.metrics_stage import RECORD, STAGE
-from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
 from taskcomplexity.study.plan import (
     cache_from_config,
     metrics_settings_from_config,
@@ -47,6 +46,8 @@ def run(cfg: DictConfig):
     else:
         names, requests = None, [rwg_request_from_config(cfg, task_from_config(cfg))]
     RECORD.check(settings, None, requests, user_overrides())  # against every task's N and M, before any work
+    from taskcomplexity.stages.task_artefacts import metrics_frame, study_metrics
+
     cache = cache_from_config(cfg)
     results = study_metrics(
         cache, list(requests), settings, names=list(names) if names else None, force=bool(cfg.force), progress=True

@@ -23,9 +23,8 @@ then reads every run from the cache::
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import pandas as pd
 from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors, user_overrides
@@ -33,7 +32,6 @@ from taskcomplexity.commands import entry_point
 from taskcomplexity.config import plain
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.rl import with_budget
-from taskcomplexity.rl.train import refuse_untrainable
 from taskcomplexity.stages.sac_stage import (
     CURVES,
     SKIPPED_ATTR,
@@ -46,6 +44,9 @@ from taskcomplexity.study.plan import cache_from_config, study_from
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 log = logging.getLogger("sac")
 
 
@@ -54,6 +55,8 @@ def run(cfg: DictConfig):
     settings = sac_settings_from_config(cfg.sac)
     if settings.entry is not None:
         return train_study_task(cfg, settings.entry)
+    from taskcomplexity.rl.train import refuse_untrainable
+
     task = task_from_config(cfg)
     # refused before the cache holds anything of the run (training refuses it too, but only once its
     # scratch directory and lock exist)

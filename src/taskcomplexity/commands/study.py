@@ -16,12 +16,13 @@ from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
-from taskcomplexity.study.run import run_study
 
 
 @one_line_errors
 def run(cfg: DictConfig):
     """The whole chain for ``cfg`` (:func:`taskcomplexity.study.run.run_study`)."""
+    from taskcomplexity.study.run import run_study
+
     return run_study(cfg)
 
 

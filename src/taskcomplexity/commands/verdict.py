@@ -13,12 +13,10 @@ from __future__ import annotations
 
 import logging
 
-import pandas as pd
 from omegaconf import DictConfig
 
 from taskcomplexity.cli import one_line_errors
 from taskcomplexity.commands import entry_point
-from taskcomplexity.study.chain import study_artefacts
 from taskcomplexity.study.plan import read_plan
 
 log = logging.getLogger("verdict")
@@ -27,7 +25,12 @@ log = logging.getLogger("verdict")
 @one_line_errors
 def run(cfg: DictConfig):
     """The study's verdict artefact (computed or reused); prints its per-metric summary."""
-    artefact = study_artefacts(read_plan(cfg)).verdict
+    plan = read_plan(cfg)  # every setting checked before the stages' modules are imported
+    import pandas as pd
+
+    from taskcomplexity.study.chain import study_artefacts
+
+    artefact = study_artefacts(plan).verdict
     summary = pd.read_parquet(artefact.file("summary.parquet"))
     log.info("verdict: %s", artefact.file("verdict.parquet"))
     print(summary.to_string(index=False), flush=True)

@@ -12,25 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from taskcomplexity.metrics._validation import check_bins, validate_returns
+from taskcomplexity.metrics.bins import RETURNS_PER_BIN as RETURNS_PER_BIN
+from taskcomplexity.metrics.bins import auto_bins as auto_bins
 from taskcomplexity.metrics.histogram import HistogramTerms, bin_edges, histogram_terms, plugin_entropy
 
 DEFAULT_BINS = 100_000
 """Number of equal-width bins of the published estimator."""
-
-RETURNS_PER_BIN = 50
-"""The paper's ratio N·M / B of returns per bin: 10⁴ policies × 500 episodes over 10⁵ bins."""
-
-
-def auto_bins(policies: int, episodes: int) -> int:
-    """B at the paper's ratio of returns per bin: ``max(2, N·M // 50)`` (10⁵ at N = 10⁴, M = 500).
-
-    With many more bins than that, most returns sit alone in their bin and the plug-in PIC rises to
-    its ceiling ln N whatever the task (it measures the estimator); with this ratio it does not.
-    """
-    for name, value in (("policies", policies), ("episodes", episodes)):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-            raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return max(2, int(policies) * int(episodes) // RETURNS_PER_BIN)
 
 
 @dataclass(frozen=True)

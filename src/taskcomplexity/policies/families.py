@@ -25,15 +25,17 @@ observation size, ``act`` its action size (:class:`~taskcomplexity.tasks.base.Ta
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Protocol, Self, runtime_checkable
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, Self, runtime_checkable
 
 import numpy as np
-import torch
 
 from taskcomplexity.config import build, plain
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.policies.primitives import PrimitiveSpec
+
+if TYPE_CHECKING:
+    import torch
 
 
 @runtime_checkable

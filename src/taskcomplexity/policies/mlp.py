@@ -14,13 +14,15 @@ import os
 import weakref
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-import torch
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.seeding import policy_generator
+
+if TYPE_CHECKING:  # torch is imported by the functions that build and run the policies
+    import torch
 
 PRIOR_KINDS = ("normal", "uniform", "xavier_normal", "xavier_uniform")
 
@@ -278,6 +280,8 @@ class PolicyBatch:
             self._forward(x, out, *work[0])
         else:
             list(self._pool().map(lambda job: self._forward(x, out, *job), work))
+        import torch
+
         return torch.from_numpy(out)
 
     def _pool(self) -> ThreadPoolExecutor:
@@ -309,6 +313,8 @@ CACHE_ENVIRONMENTS = 2048  # environments whose activations are computed togethe
 
 
 def _workers() -> int:
+    import torch
+
     return max(1, min(os.cpu_count() or 1, torch.get_num_threads()))
 
 
@@ -335,9 +341,13 @@ def sample_policies(
     action_size: int,
     seed: int,
     indices: np.ndarray,
-    dtype: torch.dtype = torch.float64,
+    dtype: torch.dtype | None = None,
 ) -> PolicyBatch:
-    """Draw θₙ for every n in ``indices`` and stack them into a :class:`PolicyBatch`."""
+    """Draw θₙ for every n in ``indices`` and stack them into a :class:`PolicyBatch` (of ``dtype``, float64 by
+    default)."""
+    import torch
+
+    dtype = torch.float64 if dtype is None else dtype
     per_policy = [policy_parameters(network, prior, observation_size, action_size, seed, int(n)) for n in indices]
     n_layers = len(per_policy[0])
     weights = [
@@ -354,6 +364,8 @@ def sample_policies(
 
 def select_policies(batch: PolicyBatch, rows: np.ndarray) -> PolicyBatch:
     """The policies at positions ``rows`` of ``batch`` (copies of their parameters)."""
+    import torch
+
     index = torch.from_numpy(np.asarray(rows, dtype=np.int64))
     return dataclasses.replace(
         batch,

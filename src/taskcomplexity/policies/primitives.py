@@ -33,16 +33,18 @@ import dataclasses
 import math
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
-import numba
 import numpy as np
-import torch
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import PriorSpec
-from taskcomplexity.policies.movement_primitives import DMPSpec
 from taskcomplexity.seeding import policy_generator
+
+if TYPE_CHECKING:  # torch, numba and the DMP kernels are imported by the functions that run the primitives
+    import torch
+
+    from taskcomplexity.policies.movement_primitives import DMPSpec
 
 FAMILY = "dmp"
 PARALLEL_ENVIRONMENTS = 16_384
@@ -96,6 +98,8 @@ class PrimitiveSpec:
 
     @property
     def dmp(self) -> DMPSpec:
+        from taskcomplexity.policies.movement_primitives import DMPSpec
+
         return DMPSpec(basis=self.basis, alpha_z=self.alpha_z, alpha_x=self.alpha_x, substeps=self.substeps)
 
     @property
@@ -283,6 +287,8 @@ class PrimitiveBatch:
 
     def begin(self, observations: torch.Tensor) -> PrimitiveEpisodes:
         """Plan every episode from its first observation (P, E, obs): start, goal and trajectory."""
+        import torch
+
         x = np.asarray(observations.numpy() if isinstance(observations, torch.Tensor) else observations)
         n_pol, n_env = x.shape[:2]
         start = self.geometry.configuration(x)
@@ -301,6 +307,9 @@ class PrimitiveBatch:
         Every environment's action is its own elementwise arithmetic, so a large batch is split over
         policies into one part per numba thread (NumPy releases the GIL): the same numbers, on every core.
         """
+        import numba
+        import torch
+
         x = np.asarray(observations.numpy() if isinstance(observations, torch.Tensor) else observations)
         n_pol, n_env = x.shape[:2]
         q = np.empty((n_pol, n_env, self.geometry.joints))

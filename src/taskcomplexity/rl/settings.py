@@ -5,11 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from gymnasium import spaces
-
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.tasks.rewards import reward_kind
+from taskcomplexity.tasks.reward_kinds import reward_kind
 from taskcomplexity.tasks.spec import TaskSpec
 
 HER_STRATEGIES = ("future", "final", "episode", "random")
@@ -287,6 +285,8 @@ def sac_skip_reason(task) -> str | None:
     actor scaled into the Box bounds); a Discrete action space is skipped with the reason
     ``"discrete actions"``.
     """
+    from gymnasium import spaces
+
     if isinstance(task.action_space, spaces.Discrete):
         return "discrete actions"
     return None

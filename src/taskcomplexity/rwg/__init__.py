@@ -23,16 +23,41 @@ The package re-exports the names of its modules:
 - :mod:`.occupancy`: the state–action occupancy of sampled policies (the occupancy distance's input).
 """
 
-from taskcomplexity.rwg.arm_resets import initial_states
-from taskcomplexity.rwg.backends import AUTO, BACKENDS, resolve_backend
-from taskcomplexity.rwg.batched_backend import simulate_batched
-from taskcomplexity.rwg.chunking import ReturnChunk, chunk_size, chunks
-from taskcomplexity.rwg.pybullet_backend import simulate_pybullet
-from taskcomplexity.rwg.run import run_batch, run_rwg, simulate_chunk
-from taskcomplexity.rwg.settings import CONTACTS, RWGSettings
+import importlib
+from typing import TYPE_CHECKING
 
-_simulate_batched = simulate_batched  # the names the benchmarks import (bench/bench_rwg.py)
-_simulate_pybullet = simulate_pybullet
+if TYPE_CHECKING:  # what the package re-exports, for type checkers and readers; imported on first use (__getattr__)
+    from taskcomplexity.rwg.arm_resets import initial_states
+    from taskcomplexity.rwg.backends import AUTO, BACKENDS, resolve_backend
+    from taskcomplexity.rwg.batched_backend import simulate_batched
+    from taskcomplexity.rwg.chunking import ReturnChunk, chunk_size, chunks
+    from taskcomplexity.rwg.pybullet_backend import simulate_pybullet
+    from taskcomplexity.rwg.run import run_batch, run_rwg, simulate_chunk
+    from taskcomplexity.rwg.settings import CONTACTS, RWGSettings
+
+_EXPORTS = {
+    "initial_states": "arm_resets", "AUTO": "backends", "BACKENDS": "backends", "resolve_backend": "backends",
+    "simulate_batched": "batched_backend", "_simulate_batched": "batched_backend", "ReturnChunk": "chunking",
+    "chunk_size": "chunking", "chunks": "chunking", "simulate_pybullet": "pybullet_backend",
+    "_simulate_pybullet": "pybullet_backend", "run_batch": "run", "run_rwg": "run", "simulate_chunk": "run",
+    "CONTACTS": "settings", "RWGSettings": "settings",
+}
+"""Each name the package re-exports → its module, imported on first use (PEP 562): the settings are read without the
+backends' libraries (torch, numba, PyBullet). ``_simulate_batched`` and ``_simulate_pybullet`` are the names the
+benchmarks import (bench/bench_rwg.py)."""
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name.lstrip("_"))
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
 
 __all__ = [
     "AUTO", "BACKENDS", "CONTACTS", "RWGSettings", "ReturnChunk", "chunk_size", "chunks", "initial_states",

@@ -21,10 +21,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.tasks.base import Task
 
 if TYPE_CHECKING:
     from taskcomplexity.policies.families import FamilySpec
+    from taskcomplexity.tasks.base import Task
 
 BACKENDS = ("batched", "pybullet", "gym", "kernel", "envpool", "vector")
 """Every RWG backend; a task lists those it supports in ``task.backends`` (fastest exact one first)."""

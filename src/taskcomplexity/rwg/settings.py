@@ -9,11 +9,13 @@ import numpy as np
 
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.tasks.dynamics import CONTACT_MODES
-from taskcomplexity.tasks.rollout_kernel import PRECISIONS
 
-CONTACTS = tuple(CONTACT_MODES)
-"""The values of ``rwg.contacts``."""
+CONTACTS = ("pybullet", "model")
+"""The values of ``rwg.contacts``: the contact modes of the batched backend's kernels
+(:data:`taskcomplexity.tasks.dynamics.CONTACT_MODES`, named here so that reading the settings loads no kernel)."""
+PRECISIONS = ("float64", "float32")
+"""The values of ``rwg.precision``: the forward pass's arithmetics of the batched backend's kernel
+(:data:`taskcomplexity.tasks.rollout_kernel.PRECISIONS`)."""
 
 
 @dataclass(frozen=True)

@@ -11,12 +11,14 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from taskcomplexity.stages.cache import Artefact
 from taskcomplexity.stages.sac_stage import ACTORS_ATTR, MISSING_ATTR, SKIPPED_ATTR
 from taskcomplexity.stages.stage_log import each_task
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 log = logging.getLogger(__name__)
 

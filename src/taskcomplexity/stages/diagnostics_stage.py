@@ -29,17 +29,14 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
-from tqdm.auto import tqdm
 
 from taskcomplexity import metrics as est
 from taskcomplexity.config import result_identity
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.metrics.sample import Estimation, Sample, component_seeds
 from taskcomplexity.stages import metrics_stage, rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
@@ -47,6 +44,11 @@ from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings, ret
 from taskcomplexity.stages.rwg_stage import load_returns
 from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
+
+if TYPE_CHECKING:  # the estimators and pandas are imported by the functions that compute
+    import pandas as pd
+
+    from taskcomplexity.metrics.sample import Estimation
 
 log = logging.getLogger(__name__)
 
@@ -150,6 +152,8 @@ def diagnostics_key(
 
 def estimation(metrics_settings: MetricsSettings, settings: DiagnosticsSettings) -> Estimation:
     """The estimator settings of the stage's metrics."""
+    from taskcomplexity.metrics.sample import Estimation
+
     return Estimation(bins=metrics_settings.resolved_bins, search=metrics_settings.poic_search(),
                       null_repeats=settings.repeats, knn_neighbors=settings.knn_neighbors,
                       knn_max_samples=settings.knn_max_samples,
@@ -189,6 +193,12 @@ def compute_diagnostics(
     dict of str to pandas.DataFrame
         One table per file name of :data:`FILES` (see the module docstring for their columns).
     """
+    import pandas as pd
+    from tqdm.auto import tqdm
+
+    from taskcomplexity.metrics.evaluate import batch_estimates, point_estimates
+    from taskcomplexity.metrics.sample import Sample, component_seeds
+
     sample = Sample(returns, estimation(metrics_settings, settings))
     returns, bins = sample.returns, sample.estimation.bins
     steps = tqdm(total=5, desc="diagnostics", disable=not progress, leave=False)

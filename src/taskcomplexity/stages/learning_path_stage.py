@@ -25,16 +25,13 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from taskcomplexity.config import result_identity, setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.metrics.learning_path import LearningPath
-from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.metrics.sample import Sample
 from taskcomplexity.stages import metrics_stage, sac_stage
 from taskcomplexity.stages.actor_stages import over_actor_tasks, trained_actors, unavailable_actors
 from taskcomplexity.stages.cache import Artefact, Cache
@@ -42,6 +39,11 @@ from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
 from taskcomplexity.stages.rwg_stage import EPISODES, RWGRequest
 from taskcomplexity.stages.stage import Judged, Stage, StudyWork
+
+if TYPE_CHECKING:  # the estimators and pandas are imported by the functions that compute
+    import pandas as pd
+
+    from taskcomplexity.metrics.learning_path import LearningPath
 
 STAGE = "learning_path"
 NUMERICS = Numerics(version=2, modules=(*EPISODES, *ESTIMATORS, "rwg.given_policies", "rl.snapshots", "rl.layers",
@@ -128,6 +130,8 @@ def learning_path_key(request: RWGRequest, sac_key: str, settings: LearningPathS
 def compute_path(request: RWGRequest, actors_file: Path, settings: LearningPathSettings, metrics: MetricsSettings,
                  progress=None) -> LearningPath:
     """The K return matrices of the perturbed actors (the episodes are RWG's on ``request``'s backend)."""
+    from taskcomplexity.metrics.learning_path import LearningPath
+    from taskcomplexity.metrics.sample import Sample
     from taskcomplexity.rl.snapshots import ActorSnapshots
     from taskcomplexity.rwg.given_policies import run_policies
 
@@ -153,6 +157,10 @@ def compute_path(request: RWGRequest, actors_file: Path, settings: LearningPathS
 def compute_tables(path: LearningPath, settings: LearningPathSettings, metrics: MetricsSettings, *,
                    registry: Registry = DEFAULT_REGISTRY) -> dict[str, pd.DataFrame]:
     """Every table of the stage (see the module docstring)."""
+    import pandas as pd
+
+    from taskcomplexity.metrics.policy_tables import policy_sample_tables
+
     estimation = metrics.estimation()
     row, draws, batches = policy_sample_tables(path, registry.of_stage(STAGE), policies=settings.policies,
                                                resamples=estimation.resamples, seed=estimation.bootstrap_seed,

@@ -23,18 +23,12 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import numba
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from taskcomplexity import metrics as est
 from taskcomplexity.config import build, plain, result_identity, setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
-from taskcomplexity.metrics.pic import RETURNS_PER_BIN, auto_bins
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.metrics.sample import Estimation, Sample
 from taskcomplexity.metrics.temperature import POICSearch
 from taskcomplexity.stages import rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
@@ -43,6 +37,11 @@ from taskcomplexity.stages.resources import refuse_beyond_memory
 from taskcomplexity.stages.rwg_stage import load_returns
 from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
+
+if TYPE_CHECKING:  # the estimators and pandas are imported by the functions that compute
+    import pandas as pd
+
+    from taskcomplexity.metrics.sample import Estimation
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +65,7 @@ def estimator_modules(registry: Registry) -> tuple[str, ...]:
         if name in seen or module == name or "." in module or not path.is_file():
             continue
         seen.add(name)
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in _import_statements(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.Import):
                 todo += [alias.name for alias in node.names]
             elif isinstance(node, ast.ImportFrom) and node.level <= 1:  # absolute, or relative within the package
@@ -74,6 +73,20 @@ def estimator_modules(registry: Registry) -> tuple[str, ...]:
                 todo += [base, *(f"{base}.{alias.name}" for alias in node.names)]
     return tuple(sorted(n.removeprefix(f"{PACKAGE}.") for n in seen
                         if n != est.__name__ and not n.rpartition(".")[2].startswith("_")))
+
+
+def _import_statements(tree: ast.Module):
+    """Every ``import`` and ``from … import`` of a module, at any depth (in functions, classes, branches): a walk
+    over its statements only, since an import is always one (a walk of every node costs the start of each command
+    tens of milliseconds)."""
+    todo = list(tree.body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            yield node
+            continue
+        for field in ("body", "orelse", "finalbody", "handlers", "cases"):
+            todo.extend(getattr(node, field, ()))
 
 
 ESTIMATORS = estimator_modules(DEFAULT_REGISTRY)
@@ -134,6 +147,8 @@ class MetricsSettings:
 
     def validate(self) -> None:
         if self.bins != AUTO and (isinstance(self.bins, bool) or not isinstance(self.bins, int) or self.bins < 2):
+            from taskcomplexity.metrics.bins import RETURNS_PER_BIN
+
             raise ConfigError(f"metrics.bins must be an integer >= 2 (B) or {AUTO} (N·M / {RETURNS_PER_BIN}, or the "
                               f"study's pinned B at its published N and M), got {self.bins!r}")
         low, high = self.temperature_range
@@ -157,6 +172,8 @@ class MetricsSettings:
     def at_scale(self, policies: int, episodes: int) -> MetricsSettings:
         """These settings with ``bins="auto"`` resolved for an N × M return matrix (an integer B is kept):
         the pinned protocol's B at its own N and M, else :func:`~taskcomplexity.metrics.pic.auto_bins`."""
+        from taskcomplexity.metrics.bins import auto_bins
+
         if self.bins != AUTO:
             return self
         if self.pinned is not None and (int(policies), int(episodes)) == tuple(self.pinned[:2]):
@@ -176,6 +193,8 @@ class MetricsSettings:
 
     def estimation(self) -> Estimation:
         """The estimator settings every registered metric reads."""
+        from taskcomplexity.metrics.sample import Estimation
+
         return Estimation(bins=self.resolved_bins, search=self.poic_search(), resamples=self.resamples,
                           bootstrap_seed=self.seed)
 
@@ -189,6 +208,11 @@ def compute_metrics(
     returns, settings: MetricsSettings, *, registry: Registry = DEFAULT_REGISTRY, progress: bool = False
 ) -> dict[str, pd.DataFrame]:
     """Every table of the stage from a return matrix (N, M); see the module docstring."""
+    import pandas as pd
+
+    from taskcomplexity.metrics.evaluate import batch_estimates, bootstrap_estimates, point_estimates
+    from taskcomplexity.metrics.sample import Sample
+
     sample = Sample(returns, settings.estimation(), progress=progress)
     metrics = registry.of_stage(STAGE)
     row = {"policies": sample.returns.shape[0], "episodes": sample.returns.shape[1],
@@ -263,17 +287,25 @@ def _metrics(work: StudyWork) -> dict:
                             registry=work.registry, force=plan.force, progress=work.progress)
 
 
-BYTES_PER_BIN = 12 * numba.config.NUMBA_NUM_THREADS + 32
-"""Peak bytes per histogram bin: a count table of B per thread (64- and 32-bit) and the edges and bin bounds."""
+def bytes_per_bin() -> int:
+    """Peak bytes per histogram bin: a count table of B per thread of numba's (64- and 32-bit) and the edges and bin
+    bounds."""
+    import numba
+
+    return 12 * numba.config.NUMBA_NUM_THREADS + 32
+
+
 BYTES_PER_RESAMPLE_AND_POLICY = 5
 """Peak bytes per bootstrap resample and policy: its multiplicity (32-bit) and its blocked copy (8-bit)."""
 
 
 def check_memory(settings: MetricsSettings, policies: int, episodes: int) -> None:
     """Refuse, before any work, bins or resamples whose tables would not fit in this machine's memory."""
+    from taskcomplexity.metrics.bins import auto_bins
+
     bins = settings.at_scale(policies, episodes).resolved_bins
     for need, what, advice in (
-            (bins * BYTES_PER_BIN, f"metrics.bins = {bins:,}",
+            (bins * bytes_per_bin(), f"metrics.bins = {bins:,}",
              f"lower it; metrics.bins=auto gives B = {auto_bins(policies, episodes):,} at N = {policies:,}, "
              f"M = {episodes:,}"),
             (settings.resamples * policies * BYTES_PER_RESAMPLE_AND_POLICY,

@@ -23,14 +23,12 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from taskcomplexity.config import result_identity, setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.metrics.occupancy import OccupancySample, occupancy_distances
-from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.policies.mlp import sample_policies
 from taskcomplexity.seeding import derive_seed
@@ -41,6 +39,9 @@ from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.metrics_stage import ESTIMATORS
 from taskcomplexity.stages.rwg_stage import EPISODES, RWGRequest
 from taskcomplexity.stages.stage import Judged, Stage, StudyWork
+
+if TYPE_CHECKING:  # the estimators and pandas are imported by the functions that compute
+    import pandas as pd
 
 STAGE = "occupancy"
 NUMERICS = Numerics(version=1, modules=(*EPISODES, *ESTIMATORS, "rwg.occupancy", "rl.snapshots", "rl.layers",
@@ -104,6 +105,7 @@ def occupancy_key(request: RWGRequest, sac_key: str, settings: OccupancySettings
 def compute_distances(request: RWGRequest, actors_file: Path, settings: OccupancySettings,
                       progress=None) -> tuple[np.ndarray, int]:
     """(distances (K,), pairs of the reference) of the first K random policies of ``request``."""
+    from taskcomplexity.metrics.occupancy import occupancy_distances
     from taskcomplexity.rl.snapshots import ActorSnapshots
     from taskcomplexity.rwg.occupancy import record_occupancies
 
@@ -123,6 +125,11 @@ def compute_distances(request: RWGRequest, actors_file: Path, settings: Occupanc
 def compute_tables(distances: np.ndarray, settings: OccupancySettings, *, episodes: int, reference_pairs: int,
                    registry: Registry = DEFAULT_REGISTRY) -> dict[str, pd.DataFrame]:
     """Every table of the stage from the K distances (see the module docstring)."""
+    import pandas as pd
+
+    from taskcomplexity.metrics.occupancy import OccupancySample
+    from taskcomplexity.metrics.policy_tables import policy_sample_tables
+
     distances = np.asarray(distances, dtype=np.float64)
     row, draws, batches = policy_sample_tables(OccupancySample(distances), registry.of_stage(STAGE),
                                                policies=len(distances), resamples=settings.resamples,

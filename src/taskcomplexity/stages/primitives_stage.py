@@ -21,16 +21,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from taskcomplexity.config import build, setting
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.metrics.policy_tables import policy_sample_tables
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.metrics.sample import Sample
 from taskcomplexity.policies.families import network_from_config
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.policies.primitives import PrimitiveSpec
@@ -41,6 +38,9 @@ from taskcomplexity.stages.metrics_stage import ESTIMATORS, MetricsSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest, load_returns, run_rwg_stage
 from taskcomplexity.stages.stage import Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
+
+if TYPE_CHECKING:  # the estimators and pandas are imported by the functions that compute
+    import pandas as pd
 
 STAGE = "primitives"
 NUMERICS = Numerics(version=2, modules=(*ESTIMATORS, "metrics.policy_tables", "stages.metrics_stage",
@@ -128,6 +128,11 @@ def primitives_key(request: RWGRequest, metrics: MetricsSettings, settings: Prim
 def compute_tables(returns: np.ndarray, metrics: MetricsSettings, settings: PrimitivesSettings, *,
                    registry: Registry = DEFAULT_REGISTRY) -> dict[str, pd.DataFrame]:
     """Every table of the stage from the family's (N, M) return matrix."""
+    import pandas as pd
+
+    from taskcomplexity.metrics.policy_tables import policy_sample_tables
+    from taskcomplexity.metrics.sample import Sample
+
     estimation = metrics.estimation()
     if returns.shape[0] < 2 * settings.batches:
         raise ConfigError(f"primitives.batches={settings.batches} needs at least 2 policies per batch, but N = "

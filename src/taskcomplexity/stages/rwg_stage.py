@@ -17,25 +17,29 @@ import time
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from taskcomplexity.config import canonical, result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.jobs import JobMeter, saved_records
-from taskcomplexity.policies.families import FamilySpec
-from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
-from taskcomplexity.progress import Progress
-from taskcomplexity.rwg import AUTO, ReturnChunk, RWGSettings, resolve_backend, run_rwg
-from taskcomplexity.rwg.env_checks import ENV_CHECKS, EnvContractError
-from taskcomplexity.rwg.envpool_backend import simulator as backend_simulator
+from taskcomplexity.rwg.backends import AUTO, resolve_backend
+from taskcomplexity.rwg.settings import RWGSettings
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans, waiting_lock
 from taskcomplexity.stages.keys import Numerics, stage_key
 from taskcomplexity.stages.resources import refuse_beyond_disk, refuse_beyond_memory
 from taskcomplexity.stages.stage import Stage, StudyWork
 from taskcomplexity.stages.stage_log import each_task
-from taskcomplexity.tasks.base import Task
+
+if TYPE_CHECKING:  # the backends, the policy families and pandas are imported by the functions that run them
+    import pandas as pd
+
+    from taskcomplexity.policies.families import FamilySpec
+    from taskcomplexity.policies.mlp import PriorSpec
+    from taskcomplexity.progress import Progress
+    from taskcomplexity.rwg.chunking import ReturnChunk
+    from taskcomplexity.tasks.base import Task
 
 log = logging.getLogger(__name__)
 
@@ -45,9 +49,9 @@ EPISODES = (
     "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.arm_resets", "rwg.batched_backend",
     "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend", "rwg.envpool_backend",
     "rwg.vector_backend",
-    "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.batched", "tasks.dynamics",
-    "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env", "tasks.gym_task",
-    "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets", "tasks.envpool_ids",
+    "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.reward_kinds", "tasks.urdf", "tasks.batched",
+    "tasks.dynamics", "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env",
+    "tasks.gym_task", "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets", "tasks.envpool_ids",
     "tasks.vectorised", "tasks.manipulation",
 )
 """The modules that make a task's episodes under a batch of sampled policies: the policy families and their
@@ -72,6 +76,8 @@ class RWGRequest:
     backend: str = AUTO
 
     def __post_init__(self) -> None:
+        from taskcomplexity.policies.mlp import NetworkSpec
+
         object.__setattr__(self, "backend", resolve_backend(self.task, str(self.backend), self.network))
         if self.settings.precision != "float64":
             if self.backend != "batched" or not isinstance(self.network, NetworkSpec):
@@ -98,6 +104,8 @@ class RWGRequest:
             "backend": self.backend,
             **result_identity(self.settings),
         }
+        from taskcomplexity.rwg.envpool_backend import simulator as backend_simulator
+
         if (simulator := backend_simulator(self.task, self.backend)) is not None:
             identity["simulator"] = simulator  # EnvPool's own build of MuJoCo and its own reset generator
         if not self.models_contacts:
@@ -141,6 +149,8 @@ def _save_chunk(path: Path, chunk: ReturnChunk) -> None:
 
 
 def _load_chunk(path: Path) -> ReturnChunk | None:
+    from taskcomplexity.rwg.chunking import ReturnChunk
+
     try:
         with np.load(path) as z:
             return ReturnChunk(z["policy"], z["returns"], z["steps"], z["success"], int(z["handoffs"]),
@@ -161,7 +171,7 @@ def compute_shard(cache: Cache, request: RWGRequest, shard: int, *, progress: Pr
 
     ``scratch`` defaults to the key's shared partial-work directory (``Cache.scratch``).
     """
-    from taskcomplexity.rwg import chunks
+    from taskcomplexity.rwg import chunks, run_rwg
 
     settings = RWGSettings(**{**asdict(request.settings), "shard": shard})
     scratch = scratch or cache.scratch(STAGE, request.key)
@@ -203,6 +213,8 @@ def missing_shards(cache: Cache, request: RWGRequest, scratch: Path | None = Non
 
 def returns_frame(chunk: ReturnChunk) -> pd.DataFrame:
     """Tidy table: one row per (policy, episode)."""
+    import pandas as pd
+
     n_pol, n_ep = chunk.returns.shape
     return pd.DataFrame(
         {
@@ -330,6 +342,8 @@ def run_rwg_stage(
         ``artefact`` is None when this job finished its shard but others are still missing and
         ``compute_missing`` is False.
     """
+    from taskcomplexity.rwg.env_checks import ENV_CHECKS, EnvContractError
+
     request.settings.validate()
     key = request.key
     if not force and (found := cache.lookup(STAGE, key, request.identity())) is not None:
@@ -358,6 +372,8 @@ def run_rwg_stage(
         return None, False
 
     def write(directory: Path) -> dict:
+        from taskcomplexity.rwg.chunking import ReturnChunk
+
         parts = [_load_chunk(_shard_file(scratch, i, shards)) for i in range(shards)]
         if any(p is None for p in parts):
             raise ArtefactError(f"rwg {key}: a shard became unreadable while merging; rerun to recompute it")
@@ -385,6 +401,8 @@ def run_rwg_stage(
 
 def load_returns(artefact: Artefact) -> np.ndarray:
     """The (N, M) return matrix of an RWG artefact."""
+    import pandas as pd
+
     frame = pd.read_parquet(artefact.file(RETURNS), columns=["policy", "episode", "return"])
     n_pol = int(frame["policy"].max()) + 1
     n_ep = int(frame["episode"].max()) + 1

@@ -18,9 +18,7 @@ import logging
 import shutil
 import time
 from collections.abc import Sequence
-from typing import Any
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from taskcomplexity.config import build, result_identity
 from taskcomplexity.cores import usable_cores
@@ -41,15 +39,19 @@ from taskcomplexity.stages.resources import mlp_parameters, refuse_beyond_disk, 
 from taskcomplexity.stages.stage import SEEDS, Judged, Stage, StudyWork
 from taskcomplexity.stages.stage_log import outcome
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 log = logging.getLogger(__name__)
 
 STAGE = "sac"
 NUMERICS = Numerics(version=1, modules=(
     "rl.settings", "rl.train", "rl.factories", "rl.layers", "rl.objective", "rl.her", "rl.evaluation", "rl.snapshots",
     "policies.mlp",
-    "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.urdf", "tasks.pybullet_env",
-    "tasks.goal_env", "tasks.gym_task", "tasks.batched_vector", "tasks.batched", "tasks.step_kernel", "tasks.dynamics",
-    "tasks.rollout_kernel", "tasks.contact", "tasks.manipulation", "stages.sac_stage",
+    "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.reward_kinds", "tasks.urdf",
+    "tasks.pybullet_env", "tasks.goal_env", "tasks.gym_task", "tasks.batched_vector", "tasks.batched",
+    "tasks.step_kernel", "tasks.dynamics", "tasks.rollout_kernel", "tasks.contact", "tasks.manipulation",
+    "stages.sac_stage",
 ))
 CURVES = "curves.parquet"
 # Settings that do not change the curve, left out of the key.
@@ -310,6 +312,8 @@ def study_sac_curves(
     ConfigError
         If a task has neither ``sac.total_steps`` nor ``sac_steps`` (checked for every task first).
     """
+    import pandas as pd
+
     from taskcomplexity.rl import CURVE_COLUMNS, protocol_variants, sac_skip_reason, with_budget
 
     settings = sac_settings_from_config(node)

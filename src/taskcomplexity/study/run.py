@@ -1,6 +1,7 @@
 """The whole chain of a study from a composed config: its plan, read once (:mod:`taskcomplexity.study.plan`), its
 artefacts (:mod:`taskcomplexity.study.chain`), then its report (:mod:`taskcomplexity.report`). The only
-module that joins the chain and the report, so that neither imports the other."""
+module that joins the chain and the report, so that neither imports the other. The plan is read before either is
+imported: a study its config refuses loads neither the stages' numerics nor the report's plotting libraries."""
 
 from __future__ import annotations
 
@@ -12,10 +13,7 @@ from typing import Any
 
 from taskcomplexity.cli import user_overrides
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
-from taskcomplexity.report.build import build_report
-from taskcomplexity.report.runs import keep_run, run_directory
 from taskcomplexity.stages.declared import STAGES
-from taskcomplexity.study.chain import study_artefacts
 from taskcomplexity.study.plan import StudyPlan, read_plan
 
 log = logging.getLogger(__name__)
@@ -38,6 +36,10 @@ def run_plan(plan: StudyPlan, *, registry: Registry = DEFAULT_REGISTRY, started:
     one another) and records itself there for the sweep report (:mod:`taskcomplexity.report.sweep`).
     ``started``: when the run began (the time it prints counts from there; default: now).
     """
+    from taskcomplexity.report.build import build_report
+    from taskcomplexity.report.runs import keep_run, run_directory
+    from taskcomplexity.study.chain import study_artefacts
+
     started = time.time() if started is None else started
     artefacts = study_artefacts(plan, registry=registry)
     name = artefacts.name

@@ -34,6 +34,8 @@ quiet
     Silence a C library's writes to the standard streams for the span of a ``with`` block.
 registration
     The package's gymnasium ids, registered lazily (PyBullet is imported only by ``make``).
+reward_kinds
+    The reward kinds, declared once: what each is and what its consumers branch on (read without the kernels).
 rewards
     The reward kinds: declared once, computed by one scalar function.
 rollout_kernel

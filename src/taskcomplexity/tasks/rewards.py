@@ -13,66 +13,24 @@ from the obstacle (m). Every kind terminates the episode at success (d < thresho
 (numba inlines it), and the PyBullet reference (through
 :func:`taskcomplexity.tasks.mechanics.reward_terms`) and the goal-conditioned view
 (:func:`taskcomplexity.tasks.goal_env.compute_reward`) evaluate it on arrays through
-:func:`rewards`. A new kind is a :class:`RewardKind` in :data:`KINDS`, a branch of :func:`reward`,
-and its YAML file under ``taskcomplexity/conf/reward``.
+:func:`rewards`. A new kind is a :class:`RewardKind` in :data:`KINDS` (declared in
+:mod:`taskcomplexity.tasks.reward_kinds`, which reading a config imports without the kernels), a branch of
+:func:`reward`, and its YAML file under ``taskcomplexity/conf/reward``.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numba
 import numpy as np
 
-from taskcomplexity.errors import ConfigError
-
-DENSE, SPARSE = 0.0, 1.0  # RewardKind.code: what the kernels branch on
-
-TERMS = ("distance", "action", "collision", "proximity")
-"""The signed terms of a shaped reward (:func:`shaped_terms`), in summation order."""
-OBSTACLE_TERMS = ("collision", "proximity")
-"""The terms that exist only on a task with an obstacle."""
-
-
-class RewardKind(NamedTuple):
-    """One reward kind and the properties its consumers branch on."""
-
-    name: str
-    """The ``reward.kind`` of the config."""
-    code: float
-    """The kernels' code of the kind (:func:`reward` branches on it)."""
-    goal_reward: bool
-    """The whole reward is a function of (achieved goal, desired goal): a goal-conditioned view's
-    ``compute_reward`` is the task's reward, and relabelling needs nothing else (HER's setting)."""
-    obstacle: bool
-    """Defined on tasks with an obstacle (the reward has the collision and proximity terms)."""
-    terms: tuple[str, ...]
-    """The signed terms of :data:`TERMS` the reference env reports (``info["reward_<term>"]``; the
-    obstacle's only on a task with one)."""
-
-
-KINDS: dict[str, RewardKind] = {
-    kind.name: kind
-    for kind in (
-        RewardKind("dense", DENSE, goal_reward=False, obstacle=True, terms=TERMS),
-        RewardKind("sparse", SPARSE, goal_reward=True, obstacle=False, terms=()),
-    )
-}
-REWARD_KINDS: tuple[str, ...] = tuple(KINDS)
-"""The names ``reward.kind`` may take."""
-
-
-def reward_kind(name: str) -> RewardKind:
-    """The :class:`RewardKind` called ``name``.
-
-    Raises
-    ------
-    ConfigError
-        For an unknown name (the message lists the kinds).
-    """
-    if name not in KINDS:
-        raise ConfigError(f"reward.kind must be one of {list(REWARD_KINDS)}, got {name!r}")
-    return KINDS[name]
+from taskcomplexity.tasks.reward_kinds import DENSE as DENSE
+from taskcomplexity.tasks.reward_kinds import KINDS as KINDS
+from taskcomplexity.tasks.reward_kinds import OBSTACLE_TERMS as OBSTACLE_TERMS
+from taskcomplexity.tasks.reward_kinds import REWARD_KINDS as REWARD_KINDS
+from taskcomplexity.tasks.reward_kinds import SPARSE as SPARSE
+from taskcomplexity.tasks.reward_kinds import TERMS as TERMS
+from taskcomplexity.tasks.reward_kinds import RewardKind as RewardKind
+from taskcomplexity.tasks.reward_kinds import reward_kind as reward_kind
 
 
 @numba.njit(cache=True)

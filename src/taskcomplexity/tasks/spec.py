@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from taskcomplexity.config import canonical
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.tasks.rewards import KINDS, REWARD_KINDS, reward_kind
+from taskcomplexity.tasks.reward_kinds import KINDS, REWARD_KINDS, reward_kind
 
 ENTRY_POINT = "taskcomplexity.tasks.pybullet_env:ReachingEnv"
 """Where the reaching tasks' reference env lives (loaded by gymnasium only when an env is made)."""
@@ -201,8 +201,9 @@ class RewardSpec:
     Attributes
     ----------
     kind : str
-        One of :data:`taskcomplexity.tasks.rewards.REWARD_KINDS` (the formulas are in that module):
-        dense: r = −(d² + Σ aᵢ²) (+ obstacle terms); sparse: r = 0 if d < threshold else −1.
+        One of :data:`taskcomplexity.tasks.reward_kinds.REWARD_KINDS` (the formulas are in
+        :mod:`taskcomplexity.tasks.rewards`): dense: r = −(d² + Σ aᵢ²) (+ obstacle terms); sparse: r = 0 if
+        d < threshold else −1.
     threshold : float
         Success distance, metres; the episode terminates when d < threshold.
     """
