@@ -174,14 +174,16 @@ def test_the_warm_up_runs_are_tiny_valid_configs(compose_config):
     # slow test below runs them).
     for run, _ in WARM_UP_RUNS:
         cfg = compose_config(*run, *TINY)
-        assert (cfg.rwg.policies, cfg.rwg.episodes, cfg.sac.enabled) == (10, 4, False), run
+        # M = 8: the k-NN estimator's kernels run only with k = 3 below M / 2 (TINY's docstring)
+        assert (cfg.rwg.policies, cfg.rwg.episodes, cfg.sac.enabled) == (10, 8, False), run
         assert cfg.metrics.bins <= 1000 and cfg.metrics.resamples <= 20, run
 
 
 @pytest.mark.slow
 def test_after_the_warm_up_the_main_runs_compile_nothing(tmp_path):
-    # A fresh numba cache: the warm-up compiles every set; then make run's and experiment=smoke's chains at a
-    # small size, and a classic-control task, compile nothing.
+    # A fresh numba cache: the warm-up compiles every set; then make run's and make quick's chains at a small
+    # size, and a classic-control task, compile nothing, through the paths the main runs take at their sizes: the
+    # k-NN estimator's kernels (M = 8 > 2k) and the kernel backend's parallel step (64 × 64 = PARALLEL_FROM).
     environment = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
                    "TASKCOMPLEXITY_OUTPUTS": str(tmp_path / "outputs")}
     python = [sys.executable]
@@ -190,10 +192,10 @@ def test_after_the_warm_up_the_main_runs_compile_nothing(tmp_path):
     assert warm.returncode == 0, warm.stderr[-3000:]
     assert "compiling the reaching-arm kernels" in warm.stdout and "compiled ahead" in warm.stdout
     runs = [
-        ["pipelines/study.py", "experiment=published", "rwg.policies=20", "rwg.episodes=4", "metrics.bins=1000",
+        ["pipelines/study.py", "experiment=published", "rwg.policies=20", "rwg.episodes=8", "metrics.bins=1000",
          "metrics.resamples=20", "primitives.policies=10", "primitives.episodes=4"],
-        ["pipelines/study.py", "experiment=smoke", "sac.enabled=false"],
-        ["pipelines/rwg.py", "task=acrobot", "rwg.policies=8", "rwg.episodes=2"],
+        ["pipelines/study.py", "experiment=quick", "rwg.policies=20", "rwg.episodes=8", "metrics.resamples=20"],
+        ["pipelines/rwg.py", "task=acrobot", "rwg.policies=64", "rwg.episodes=64"],
     ]
     for run in runs:
         done = subprocess.run([*python, *run], cwd=ROOT, env=environment, capture_output=True, text=True,

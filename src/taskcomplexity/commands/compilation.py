@@ -56,8 +56,10 @@ primitives), then the RWG of ``make quick`` (float64, PyBullet hand-overs: also 
 and ``experiment=smoke`` run) and of ``make classic`` (the classic-control kernels); their other stages call the
 kernels the first chain compiled, with the same argument types."""
 
-TINY = ("rwg.policies=10", "rwg.episodes=4", "metrics.bins=1000", "metrics.resamples=20", "sac.enabled=false")
-"""The overrides that shrink a study to seconds of work (``experiment=smoke``'s sizes, SAC off)."""
+TINY = ("rwg.policies=10", "rwg.episodes=8", "metrics.bins=1000", "metrics.resamples=20", "sac.enabled=false")
+"""The overrides that shrink a study to seconds of work (SAC off). M = 8, not fewer: the k-NN estimator runs its
+kernels only when its k = 3 neighbours are below M / 2 per policy (below, it hands the estimate to scikit-learn),
+so a warm-up at fewer episodes would leave them to the first real run."""
 
 
 def cache_location() -> str:
@@ -238,9 +240,10 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
     """Compile (or load from numba's cache) every kernel the studies of :data:`WARM_UP_RUNS` call.
 
     Each runs at :data:`TINY` size into a temporary cache (its whole chain: RWG, metrics, diagnostics, the
-    movement primitives, the verdict, no SAC, no report; or only two episodes of two policies per task), so
-    its kernels are called with the argument types a run at any size calls them with. Returns the log of what
-    compiled.
+    movement primitives, the verdict, no SAC, no report; or only the RWG of two policies per task, in a batch of
+    4 environments and in one of the kernel backend's ``PARALLEL_FROM``), so its kernels are called with the
+    argument types, and through the size-dependent paths, that a run at any size calls them with. Returns the
+    log of what compiled.
     """
     from dataclasses import replace
 
@@ -249,6 +252,7 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
 
     from taskcomplexity.cli import CONF_DIR
     from taskcomplexity.rwg import simulate_chunk
+    from taskcomplexity.rwg.kernel_backend import PARALLEL_FROM
     from taskcomplexity.study.chain import study_artefacts
     from taskcomplexity.study.plan import read_plan
 
@@ -263,8 +267,12 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
                 study_artefacts(plan, progress=False, ahead=False)
                 continue
             for request in plan.requests:
-                simulate_chunk(request.task, request.network, request.prior,
-                               replace(request.settings, policies=2, episodes=2), 0, 2, request.backend)
+                # a batch of 4 environments and one of PARALLEL_FROM: the kernel backend steps them with its
+                # serial and its parallel kernel, so each is compiled here (a real run's batches are the larger)
+                for policies, episodes in ((2, 2), (2, PARALLEL_FROM // 2)):
+                    simulate_chunk(request.task, request.network, request.prior,
+                                   replace(request.settings, policies=policies, episodes=episodes), 0, policies,
+                                   request.backend)
         GlobalHydra.instance().clear()
     return compiled
 
