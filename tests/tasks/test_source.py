@@ -78,3 +78,13 @@ def test_an_env_file_without_own_imports_keeps_the_digest_of_its_one_file(tmp_pa
     importlib.invalidate_caches()
     assert source_digest("single_env") == hashlib.sha256((tmp_path / "single_env.py").read_bytes()).hexdigest()[:16]
     assert source_digest("no_such_module_anywhere") == ""
+
+
+def test_an_installed_package_it_imports_is_not_imported_to_compute_the_digest(package):
+    """Following ``from gymnasium.utils.save_video import …`` would import gymnasium's package (which raises without
+    moviepy): an installed package's modules are not followed, so nothing of it runs."""
+    (package / "rewards.py").write_text("from gymnasium.utils.save_video import save_video\n"
+                                        "import gymnasium.wrappers.vector\n")
+    before = set(sys.modules)
+    assert "lab_envs.rewards" in own_imports("lab_envs.point", package / "point.py")
+    assert not {m for m in set(sys.modules) - before if m.startswith("gymnasium")}

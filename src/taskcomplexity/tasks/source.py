@@ -19,6 +19,7 @@ import ast
 import hashlib
 import importlib.util
 import site
+import sys
 import sysconfig
 from functools import cache
 from pathlib import Path
@@ -51,7 +52,7 @@ def own_imports(module: str, origin: Path) -> dict[str, Path]:
     while pending:
         name, path = pending.pop()
         for imported in _imports(name, path):
-            if imported in found or imported == module:
+            if imported in found or imported == module or not _own_package(imported.partition(".")[0]):
                 continue
             where = _origin(imported)
             if where is not None and _own(where):
@@ -86,12 +87,30 @@ def _imports(module: str, path: Path) -> set[str]:
     return expanded
 
 
+@cache
+def _own_package(top: str) -> bool:
+    """Whether the top-level module or package ``top`` is the researcher's own code. Asked before any of its
+    submodules is looked up: finding ``a.b`` imports ``a``, which for an installed package would run its code (and
+    could fail on a dependency it lacks) for nothing."""
+    if top in sys.builtin_module_names:
+        return False
+    where = _origin(top)
+    if where is not None:
+        return _own(where)
+    try:  # a namespace package (no __init__.py): its own code, if any, is in its directories
+        spec = importlib.util.find_spec(top)
+    except Exception:  # noqa: BLE001 - as in _origin
+        return False
+    locations = list(getattr(spec, "submodule_search_locations", None) or []) if spec is not None else []
+    return any(_own(Path(location) / "__init__.py") for location in locations)
+
+
 def _origin(module: str) -> Path | None:
     """The source file of ``module`` (None for a built-in, a namespace package, a compiled extension, or a name that
-    is not a module)."""
+    is not a module, or whose parent package fails to import)."""
     try:
         spec = importlib.util.find_spec(module)
-    except (ImportError, ValueError, AttributeError):
+    except Exception:  # noqa: BLE001 - a parent package that raises on import (a dependency it lacks): not followed
         return None
     if spec is None or not spec.origin or not spec.origin.endswith(".py"):
         return None
