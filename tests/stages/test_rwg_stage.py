@@ -87,11 +87,11 @@ class Killed(Exception):
 
 
 def test_interrupted_run_resumes_from_completed_chunks(tmp_path, monkeypatch):
-    import taskcomplexity.rwg as rwg
+    from taskcomplexity.rwg import run
 
     reference, _ = run_rwg_stage(Cache(tmp_path / "ref"), request(chunk_policies=2))
     cache = Cache(tmp_path / "run")
-    real = rwg.simulate_chunk
+    real = run.simulate_chunk
     calls = []
     kill_at = [3]
 
@@ -101,7 +101,7 @@ def test_interrupted_run_resumes_from_completed_chunks(tmp_path, monkeypatch):
             raise Killed("the job was killed")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(rwg, "simulate_chunk", flaky)
+    monkeypatch.setattr(run, "simulate_chunk", flaky)  # where run_rwg looks it up
     with pytest.raises(Killed):
         run_rwg_stage(cache, request(chunk_policies=2))
     assert cache.lookup("rwg", reference.key) is None  # no half artefact under the key

@@ -10,7 +10,8 @@ The package re-exports the names of its modules:
 - :mod:`.settings`: :class:`RWGSettings`, the ``rwg.*`` settings;
 - :mod:`.backends`: the backends and :func:`resolve_backend`, the choice of one for a task and a policy family;
 - :mod:`.chunking`: :class:`ReturnChunk` and the split of a shard into chunks;
-- :mod:`.run`: :func:`run_rwg` over a shard, :func:`simulate_chunk` for a chunk, :func:`run_batch` for a batch;
+- :mod:`.run`: :func:`run_rwg` over a shard; :mod:`.batch`: :func:`simulate_chunk` for a chunk, :func:`run_batch`
+  for a batch (the one dispatch over the backends);
 - the backends: :mod:`.batched_backend` and :mod:`.pybullet_backend` (the reaching arms, from the reset states
   of :mod:`.arm_resets`), :mod:`.gym_backend` (any gymnasium task), :mod:`.kernel_backend` (classic control),
   :mod:`.envpool_backend` (MuJoCo and DM Control on EnvPool), :mod:`.vector_backend` (a researcher's vector env);
@@ -29,17 +30,18 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # what the package re-exports, for type checkers and readers; imported on first use (__getattr__)
     from taskcomplexity.rwg.arm_resets import initial_states
     from taskcomplexity.rwg.backends import AUTO, BACKENDS, resolve_backend
+    from taskcomplexity.rwg.batch import run_batch, simulate_chunk
     from taskcomplexity.rwg.batched_backend import simulate_batched
     from taskcomplexity.rwg.chunking import ReturnChunk, chunk_size, chunks
     from taskcomplexity.rwg.pybullet_backend import simulate_pybullet
-    from taskcomplexity.rwg.run import run_batch, run_rwg, simulate_chunk
+    from taskcomplexity.rwg.run import run_rwg
     from taskcomplexity.rwg.settings import CONTACTS, RWGSettings
 
 _EXPORTS = {
     "initial_states": "arm_resets", "AUTO": "backends", "BACKENDS": "backends", "resolve_backend": "backends",
     "simulate_batched": "batched_backend", "_simulate_batched": "batched_backend", "ReturnChunk": "chunking",
     "chunk_size": "chunking", "chunks": "chunking", "simulate_pybullet": "pybullet_backend",
-    "_simulate_pybullet": "pybullet_backend", "run_batch": "run", "run_rwg": "run", "simulate_chunk": "run",
+    "_simulate_pybullet": "pybullet_backend", "run_batch": "batch", "run_rwg": "run", "simulate_chunk": "batch",
     "CONTACTS": "settings", "RWGSettings": "settings",
 }
 """Each name the package re-exports → its module, imported on first use (PEP 562): the settings are read without the

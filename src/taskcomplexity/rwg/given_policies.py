@@ -1,8 +1,8 @@
 """RWG's episodes for policies that are given, not drawn from a prior (e.g. perturbed SAC actors).
 
-:func:`~taskcomplexity.rwg.run.simulate_chunk` draws policies ``start … stop−1`` from (network, prior);
+:func:`~taskcomplexity.rwg.batch.simulate_chunk` draws policies ``start … stop−1`` from (network, prior);
 :func:`run_policies` runs a given :class:`~taskcomplexity.policies.mlp.PolicyBatch` through the same dispatch
-(:func:`~taskcomplexity.rwg.run.run_batch`), with the same reset states for (seed, policy index n, episode e).
+(:func:`~taskcomplexity.rwg.batch.run_batch`), with the same reset states for (seed, policy index n, episode e).
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from threadpoolctl import threadpool_limits
 
 from taskcomplexity.policies.mlp import PolicyBatch
 from taskcomplexity.rwg.backends import resolve_backend
+from taskcomplexity.rwg.batch import run_batch
 from taskcomplexity.rwg.chunking import ReturnChunk
-from taskcomplexity.rwg.run import run_batch
 from taskcomplexity.tasks.base import Task
 
 

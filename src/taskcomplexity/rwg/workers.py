@@ -23,6 +23,7 @@ from taskcomplexity.errors import WorkerLost
 from taskcomplexity.policies.families import FamilySpec
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.processes import start_worker, stop_pool
+from taskcomplexity.rwg.batch import simulate_chunk
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.rwg.gym_backend import GymRollout
 from taskcomplexity.rwg.settings import RWGSettings
@@ -48,8 +49,6 @@ def _start(task: Task) -> None:
 
 def _chunk(task: Task, network: FamilySpec, prior: PriorSpec, settings: RWGSettings, start: int,
            stop: int) -> ReturnChunk:
-    from taskcomplexity.rwg.run import simulate_chunk
-
     return simulate_chunk(task, network, prior, settings, start, stop, backend="gym", rollout=_ROLLOUT)
 
 
