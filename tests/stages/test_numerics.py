@@ -27,7 +27,7 @@ GLUE = frozenset({
     "taskcomplexity", "tasks", "metrics", "rl", "verdict", "policies",  # packages that re-export
     "config", "cores", "errors", "extras", "jobs", "processes", "post_import", "progress", "policies.families", "study_data", "tasks.quiet", "tasks.registration",
     "rwg.workers",  # where the gym backend's chunks run: each chunk's returns are those of one process
-    "rwg.env_checks", "metrics._validation", "rl.checkpoint", "rl.collectors", "stages.cache", "stages.keys", "stages.resources",
+    "rwg.env_checks", "metrics._validation", "rl.checkpoint", "rl.collectors", "rl.curves", "stages.cache", "stages.keys", "stages.resources",
     "stages.stage_log", "stages.actor_stages",
     "stages", "stages.stage", "stages.declared", "stages.task_artefacts",  # the stages' records and their loops
 })

@@ -2,7 +2,7 @@
 
 Any :class:`~taskcomplexity.tasks.base.Task` with a Box action space: the reaching arms (with HER
 on their goal-conditioned view) and any gymnasium id. ``train_sac(task, settings, seed=...)`` returns
-a tidy learning curve (see :data:`~taskcomplexity.rl.train.CURVE_COLUMNS`); ``train_sac_seeds``
+a tidy learning curve (see :data:`~taskcomplexity.rl.curves.CURVE_COLUMNS`); ``train_sac_seeds``
 trains several seeds together. Discrete action spaces are not trained (``sac_skip_reason``).
 ``docs/explanation/sac-protocol.md`` states the protocol.
 
@@ -12,6 +12,8 @@ checkpoint
     Atomic, verified checkpoints of a SAC run: a SHA-256 header, then a ``torch.save`` payload.
 collectors
     TorchRL's collector, imported with its import-time deprecation warning silenced.
+curves
+    The columns of a SAC learning curve, and which of them hold wall-clock time.
 evaluation
     Deterministic evaluation of the seeds' policies, every seed's episodes side by side.
 factories
@@ -30,6 +32,7 @@ train
     Train SAC (+HER) on a task and return its learning curve.
 """
 
+from taskcomplexity.rl.curves import CURVE_COLUMNS, WALL_CLOCK
 from taskcomplexity.rl.settings import (
     SACSettings,
     has_goal_view,
@@ -38,12 +41,7 @@ from taskcomplexity.rl.settings import (
     with_budget,
 )
 
-WALL_CLOCK = "time/"
-"""The prefix of the curve columns that hold wall-clock time (``time/seconds``): shown to the reader, never part of
-a cache key (:func:`taskcomplexity.stages.verdict_stage.curves_digest`) nor of a comparison of numbers, since two
-identical runs differ there."""
-
-_TRAINING = ("CURVE_COLUMNS", "train_sac", "train_sac_run", "train_sac_seeds")
+_TRAINING = ("train_sac", "train_sac_run", "train_sac_seeds")
 
 
 def __getattr__(name: str):

@@ -59,9 +59,9 @@ from torchrl.objectives import SACLoss, SoftUpdate
 from tqdm.auto import tqdm
 
 from taskcomplexity.errors import ArtefactError, ConfigError
-from taskcomplexity.rl import WALL_CLOCK
 from taskcomplexity.rl.checkpoint import load_checkpoint, save_checkpoint
 from taskcomplexity.rl.collectors import Collector
+from taskcomplexity.rl.curves import CURVE_COLUMNS
 from taskcomplexity.rl.evaluation import evaluate
 from taskcomplexity.rl.factories import (
     make_actor_critic,
@@ -91,17 +91,6 @@ from taskcomplexity.tasks.spec import TaskSpec
 
 log = logging.getLogger(__name__)
 
-CURVE_COLUMNS = (
-    "task",
-    "variant",
-    "seed",
-    "env_step",
-    "eval/return_mean",
-    "eval/return_std",
-    "eval/success_rate",
-    "train/episode_return",
-    f"{WALL_CLOCK}seconds",
-)
 CHECKPOINT_FORMAT = 1
 
 
