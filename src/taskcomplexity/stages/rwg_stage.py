@@ -46,7 +46,8 @@ log = logging.getLogger(__name__)
 STAGE = "rwg"
 EPISODES = (
     "policies.mlp", "policies.primitives", "policies.movement_primitives", "seeding",
-    "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.batch", "rwg.arm_resets", "rwg.batched_backend",
+    "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.batch", "rwg.arm_resets",
+    "rwg.batched_backend",
     "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend", "rwg.envpool_backend",
     "rwg.vector_backend",
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.reward_kinds", "tasks.urdf", "tasks.batched",
