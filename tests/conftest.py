@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import subprocess
+from pathlib import Path
+
 import pytest
 from hydra import compose, initialize_config_dir
 from hydra.core.global_hydra import GlobalHydra
@@ -33,3 +37,23 @@ def pytest_terminal_summary(terminalreporter):
     from cpu_paths import describe
 
     terminalreporter.write_line(f"CPU code paths: {describe()}")
+
+
+@pytest.fixture
+def tmpfs():
+    """``with tmpfs(mount, size) as mount:`` a tmpfs of ``size`` (``"2m"``) mounted at ``mount`` for the span of the
+    block (a small disk that fills); the test is skipped where this user cannot mount one."""
+
+    @contextlib.contextmanager
+    def mounted(mount: Path, size: str):
+        mount.mkdir()
+        made = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mount)],
+                              capture_output=True)
+        if made.returncode != 0:
+            pytest.skip(f"cannot mount a filesystem here ({made.stderr.decode().strip()})")
+        try:
+            yield mount
+        finally:
+            subprocess.run(["umount", "-l", str(mount)], check=False)
+
+    return mounted

@@ -4,7 +4,6 @@ nothing is computed into it."""
 
 from __future__ import annotations
 
-import contextlib
 import importlib.util
 import json
 import os
@@ -109,22 +108,8 @@ def test_sac_networks_beyond_the_machines_memory_are_refused_before_anything_is_
     assert not list(outputs.rglob(".partial-*")) and artefacts(outputs) == []
 
 
-@contextlib.contextmanager
-def filesystem(mount: Path, size: str):
-    """A tmpfs of ``size`` mounted at ``mount`` for the span of the block; the test is skipped where this user
-    cannot mount one."""
-    mount.mkdir()
-    made = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mount)], capture_output=True)
-    if made.returncode != 0:
-        pytest.skip(f"cannot mount a filesystem here ({made.stderr.decode().strip()})")
-    try:
-        yield mount
-    finally:
-        subprocess.run(["umount", "-l", str(mount)], check=False)
-
-
-def test_sac_refuses_a_run_whose_checkpoints_do_not_fit_on_the_disk_before_training(tmp_path):
-    with filesystem(tmp_path / "disk", "3m") as disk:
+def test_sac_refuses_a_run_whose_checkpoints_do_not_fit_on_the_disk_before_training(tmp_path, tmpfs):
+    with tmpfs(tmp_path / "disk", "3m") as disk:
         outputs = disk / "outputs"  # the checkpoints of 5 seeds of a (256, 256) SAC hold about 15 MB each
         done = run("sac", ["task=pendulum", "sac.total_steps=1000", f"paths.outputs={outputs}"], tmp_path)
         assert re.fullmatch(rf"error: sac\.hidden_sizes=\[256, 256\] \([\d,]+ parameters per seed × 5 seeds on task "

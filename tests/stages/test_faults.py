@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import re
 import signal
 import subprocess
@@ -49,24 +48,10 @@ def test_ctrl_c_is_one_line_exit_130_and_the_rerun_resumes_to_the_same_returns(t
     np.testing.assert_array_equal(load_returns(cached), load_returns(fresh))
 
 
-@contextlib.contextmanager
-def filesystem(mount: Path, size: str):
-    """A tmpfs of ``size`` mounted at ``mount`` for the span of the block; the test is skipped where this user
-    cannot mount one."""
-    mount.mkdir()
-    made = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mount)], capture_output=True)
-    if made.returncode != 0:
-        pytest.skip(f"cannot mount a filesystem here ({made.stderr.decode().strip()})")
-    try:
-        yield mount
-    finally:
-        subprocess.run(["umount", "-l", str(mount)], check=False)
-
-
 @pytest.fixture
-def small_disk(tmp_path):
+def small_disk(tmp_path, tmpfs):
     """A 2 MB filesystem (tmpfs)."""
-    with filesystem(tmp_path / "disk", "2m") as mount:
+    with tmpfs(tmp_path / "disk", "2m") as mount:
         yield mount
 
 
@@ -183,9 +168,9 @@ def test_a_run_waiting_for_another_runs_lock_says_what_it_waits_for(tmp_path):
 
 
 @pytest.fixture
-def read_only_cache(tmp_path):
+def read_only_cache(tmp_path, tmpfs):
     """A cache holding the CartPole returns, on a filesystem remounted read-only (a shared cache)."""
-    with filesystem(tmp_path / "shared", "64m") as mount:
+    with tmpfs(tmp_path / "shared", "64m") as mount:
         run_rwg_stage(Cache(mount / "cache"), CARTPOLE)
         subprocess.run(["mount", "-o", "remount,ro", str(mount)], check=True)
         yield mount / "cache"
