@@ -139,6 +139,25 @@ def test_multirun_sweep_writes_one_artefact_per_task_and_then_only_hits_the_cach
     assert log.count("cache hit") >= 4 and "computed" not in log
 
 
+def test_a_job_of_a_sweep_over_rwg_entry_composes_its_own_task_into_the_studys_key(compose_config, monkeypatch):
+    # make atlas-cluster's jobs (rwg.entry=<id>): each computes the request the study makes for its task, under the
+    # key the study then finds, and composes that task alone, not the study's every task
+    from taskcomplexity.commands.rwg import entry_request
+    from taskcomplexity.study import compose
+    from taskcomplexity.study.plan import study_requests
+
+    cfg = compose_config("experiment=smoke")
+    study = {entry.id: request for entry, request in study_requests(cfg)}
+    composed, entry_config = [], compose.entry_config
+    monkeypatch.setattr(compose, "entry_config", lambda base, entry, *args: composed.append(entry.id)
+                        or entry_config(base, entry, *args))
+    for task_id, request in study.items():
+        composed.clear()
+        assert entry_request(cfg, task_id).key == request.key
+        assert composed == [task_id]
+    assert len(study) == 7
+
+
 @pytest.mark.parametrize(
     ("override", "message"),
     [

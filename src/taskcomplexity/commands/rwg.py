@@ -22,7 +22,7 @@ from taskcomplexity.commands import entry_point
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.stages.rwg_stage import STAGE, RWGRequest, run_rwg_stage
-from taskcomplexity.study.plan import cache_from_config, rwg_request_from_config, study_requests
+from taskcomplexity.study.plan import cache_from_config, rwg_request_from_config, study_from, study_requests
 
 log = logging.getLogger("rwg")
 
@@ -32,12 +32,14 @@ unless ``rwg.entry`` names one of its tasks)."""
 
 
 def entry_request(cfg: DictConfig, task_id: str) -> RWGRequest:
-    """The RWG request the study of ``cfg`` makes for its task ``task_id`` (this job's shard of it)."""
-    requests = dict((entry.id, request) for entry, request in study_requests(cfg))
-    if task_id not in requests:
-        raise ConfigError(f"rwg.entry={task_id} is not a task of study {cfg.study.name} "
-                          f"(allowed: {', '.join(requests)})")
-    return requests[task_id]
+    """The RWG request the study of ``cfg`` makes for its task ``task_id`` (this job's shard of it), composed alone:
+    a job of the sweep composes its own task, not the study's every task."""
+    study = study_from(cfg)
+    ids = [entry.id for entry in study.tasks]
+    if task_id not in ids:
+        raise ConfigError(f"rwg.entry={task_id} is not a task of study {cfg.study.name} (allowed: {', '.join(ids)})")
+    [(_, request)] = study_requests(cfg, study, only=task_id)
+    return request
 
 
 @one_line_errors

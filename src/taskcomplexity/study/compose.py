@@ -198,9 +198,10 @@ def check_presets(study: Study) -> None:
                                   f"not a {group} preset (allowed: {', '.join(group_options(group))})")
 
 
-def entry_requests(study: Study, settings, config: Mapping[str, Any], typed: list[str]
+def entry_requests(study: Study, settings, config: Mapping[str, Any], typed: list[str], only: str | None = None
                    ) -> list[tuple[StudyTask, RWGRequest]]:
-    """(StudyTask, RWGRequest) for every entry of the study, in study order.
+    """(StudyTask, RWGRequest) for every entry of the study, in study order; for the entry of id ``only`` alone when
+    given (a job of a sweep over ``rwg.entry``: the study's settings are checked, its other entries not composed).
 
     Each entry is composed with Hydra's compose API from the packaged configs (and the user's search
     path): the entry's own choices (``task``, ``env_id``, ``kwargs``, ``max_steps``, ``arm``,
@@ -222,6 +223,8 @@ def entry_requests(study: Study, settings, config: Mapping[str, Any], typed: lis
     check_presets(study)
     out = []
     for i, entry in enumerate(study.tasks):
+        if only is not None and entry.id != only:
+            continue
         node = entry_config(base, entry, typed, f"study.tasks[{i}]", family)
         out.append((entry, request_of(node, settings)))
     return out

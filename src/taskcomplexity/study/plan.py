@@ -112,15 +112,16 @@ def read_plan(cfg: Any, *, registry: Registry = DEFAULT_REGISTRY) -> StudyPlan:
                      job_dir=sweep_job_dir(), overrides=job_overrides())
 
 
-def study_requests(cfg: Any, study: Study | None = None, settings=None) -> list[tuple[StudyTask, RWGRequest]]:
+def study_requests(cfg: Any, study: Study | None = None, settings=None, only: str | None = None
+                   ) -> list[tuple[StudyTask, RWGRequest]]:
     """(StudyTask, RWGRequest) for every entry of the study of a composed config, in study order
     (:func:`taskcomplexity.study.compose.entry_requests`); ``settings``: the RWG settings (default: read from
-    ``cfg.rwg``)."""
+    ``cfg.rwg``); ``only``: the id of the one entry to compose."""
     from taskcomplexity.rwg import RWGSettings
 
     study = study or study_from(cfg)
     settings = settings if settings is not None else build(RWGSettings, cfg.rwg, "rwg")
-    return entry_requests(study, settings, plain(cfg), user_overrides())
+    return entry_requests(study, settings, plain(cfg), user_overrides(), only)
 
 
 def report_title(node: Any, name: str) -> str:
