@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from taskcomplexity.tasks import source
 from taskcomplexity.tasks.source import own_imports, source_digest
 
 FILES = {
@@ -88,3 +89,25 @@ def test_an_installed_package_it_imports_is_not_imported_to_compute_the_digest(p
     before = set(sys.modules)
     assert "lab_envs.rewards" in own_imports("lab_envs.point", package / "point.py")
     assert not {m for m in set(sys.modules) - before if m.startswith("gymnasium")}
+
+
+def test_a_package_in_another_site_packages_on_the_path_is_installed_not_own_code(package, tmp_path, monkeypatch):
+    """Another environment's packages on the path (a venv's system site packages, a ``.pth`` line, as in
+    tests/test_install.py) are installed: not followed, their digest the one file, however much they import."""
+    installed = tmp_path / "elsewhere" / "lib" / "python3" / "site-packages" / "lab_installed"
+    installed.mkdir(parents=True)
+    (installed / "__init__.py").write_text("from . import helper\n")
+    (installed / "helper.py").write_text("import lab_installed\n")
+    (package / "rewards.py").write_text("import lab_installed.helper\n")
+    monkeypatch.syspath_prepend(str(installed.parent))
+    importlib.invalidate_caches()
+    source._installed_roots.cache_clear()
+    try:
+        assert own_imports("lab_envs.point", package / "point.py").keys().isdisjoint({"lab_installed",
+                                                                                      "lab_installed.helper"})
+        assert source_digest("lab_installed.helper") == hashlib.sha256(
+            (installed / "helper.py").read_bytes()).hexdigest()[:16]
+    finally:
+        source._installed_roots.cache_clear()
+        source._own_package.cache_clear()
+        sys.modules.pop("lab_installed", None)

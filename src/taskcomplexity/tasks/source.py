@@ -7,10 +7,10 @@ statements (absolute and relative) of each file, not by running them: the digest
 process imported.
 
 *Own code* is a Python file outside the interpreter's standard library and its installed packages
-(``site-packages``), and outside this package: gymnasium's, Meta-World's and our own envs are versioned with their
-package, and their digest stays the one file that defines them. Data files an env reads (a MuJoCo XML) are not
-covered: name them in the env's constructor arguments, which are in the identity, or keep them beside a module
-whose edit marks the change.
+(any ``site-packages`` on the path), and outside this package: gymnasium's, Meta-World's and our own envs are
+versioned with their package, and their digest stays the one file that defines them. Data files an env reads
+(a MuJoCo XML) are not covered: name them in the env's constructor arguments, which are in the identity, or keep
+them beside a module whose edit marks the change.
 """
 
 from __future__ import annotations
@@ -127,12 +127,15 @@ def _own(path: Path) -> bool:
 
 @cache
 def _installed_roots() -> tuple[Path, ...]:
-    """The standard library's and the installed packages' directories."""
+    """The standard library's and the installed packages' directories: this environment's, and any other
+    ``site-packages`` on the path (a venv's system site packages, another environment's packages through a ``.pth``
+    line), whose packages are installed too."""
     paths = sysconfig.get_paths()
     roots = {paths[key] for key in ("stdlib", "platstdlib", "purelib", "platlib") if key in paths}
     roots.update(site.getsitepackages())
     if site.ENABLE_USER_SITE and site.getusersitepackages():
         roots.add(site.getusersitepackages())
+    roots.update(entry for entry in sys.path if entry and Path(entry).name in ("site-packages", "dist-packages"))
     return tuple(Path(root).resolve() for root in roots)
 
 
