@@ -15,6 +15,7 @@ run log.
 from __future__ import annotations
 
 import logging
+import math
 
 import gymnasium
 import numpy as np
@@ -104,6 +105,8 @@ def check_observation(task: Task, observation, *, seed: int | None = None, polic
     """
     space = task.observation_space
     value = np.asarray(observation)
+    if value.shape == space.shape and isinstance(space, spaces.Box):  # the common case first (once per step)
+        return value
     if isinstance(space, spaces.Discrete):
         if value.shape == () and np.issubdtype(value.dtype, np.integer) \
                 and int(space.start) <= int(value) < int(space.start + space.n):
@@ -138,8 +141,11 @@ def reward_value(task: Task, reward, where: str) -> float:
 
 def check_reward(task: Task, reward, policy: int, episode: int, step: int) -> float:
     """The reward as a float (:func:`reward_value`), refused when it is NaN or infinite (``step`` counts from 1)."""
-    value = reward_value(task, reward, f"policy {policy}, episode {episode}, step {step}")
-    if not np.isfinite(value):
+    if isinstance(reward, (float, int, np.floating, np.integer)):  # a number (where it was returned is not needed)
+        value = float(reward)
+    else:
+        value = reward_value(task, reward, f"policy {policy}, episode {episode}, step {step}")
+    if not math.isfinite(value):
         raise EnvContractError(f"task.env_id={task.env_id} returned a non-finite reward ({value}) at policy "
                                f"{policy}, episode {episode}, step {step}; returns must be finite to be cached")
     return value
