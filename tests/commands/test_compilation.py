@@ -24,7 +24,7 @@ from taskcomplexity.commands.compilation import (
     kernel_set,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "src" / "taskcomplexity"
 SETS = (("lab.alpha", "alpha"), ("lab.beta", "beta"))
 """Two kernel sets of made-up modules: each kernel below says which module it belongs to."""
