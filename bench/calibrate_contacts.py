@@ -10,7 +10,7 @@ on PyBullet, finds out at every such step whether PyBullet stopped after one swe
 ``taskcomplexity/rwg/contact_calibration.py``), and prints each measured rate with its binomial
 standard error beside the constant, their distance in standard errors, and how the rate splits on the
 forearm–plane contact the mechanism needs. Rerun it after a PyBullet upgrade; a constant more than
-about 3 standard errors off should be replaced by the measured rate (``tests/tasks/test_contact_calibration.py``
+about 3 standard errors off should be replaced by the measured rate (``tests/rwg/test_contact_calibration.py``
 checks this under ``-m slow``).
 
 Takes about 3 minutes at the default N = 300 × M = 5 (162 s on the 2-core development machine: 1 500

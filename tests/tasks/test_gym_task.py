@@ -1,4 +1,5 @@
-"""Any gymnasium id as a task: the Task seam, GymTask, and the generic RWG backend against the env itself."""
+"""Any gymnasium id as a task: the Task seam and GymTask (RWG's generic backend and its worker processes against the
+env itself: ``tests/rwg/test_gym_backend.py``)."""
 
 from __future__ import annotations
 
@@ -8,13 +9,11 @@ import textwrap
 import gymnasium
 import numpy as np
 import pytest
-import torch
 from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
-from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
-from taskcomplexity.rwg import ReturnChunk, RWGSettings, resolve_backend, run_rwg
-from taskcomplexity.seeding import episode_reset_seeds
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
@@ -130,58 +129,6 @@ def test_backends_a_task_lacks_are_refused():
     assert resolve_backend(make_task("two_link"), "auto") == "batched"
 
 
-def reference_return(task: GymTask, network, prior, seed: int, policy: int, episode: int) -> tuple[float, int]:
-    """One episode stepped by hand on ``gymnasium.make``: the generic backend must give exactly this."""
-    one = select_policy(sample_policies(network, prior, task.observation_size, task.action_size, seed,
-                                        np.array([policy])), 0)
-    env = gymnasium.make(task.env_id)
-    obs, _ = env.reset(seed=int(episode_reset_seeds(seed, policy, episode)))
-    total, steps = 0.0, 0
-    while True:
-        x = torch.from_numpy(encode_observations(task.observation_space, np.asarray(obs)[None]))
-        action = decode_actions(task.action_space, one.act(x.view(1, 1, -1))[0].numpy())[0]
-        obs, reward, terminated, truncated, _ = env.step(action)
-        total += float(reward)
-        steps += 1
-        if terminated or truncated:
-            env.close()
-            return total, steps
-
-
-@pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1", "MountainCarContinuous-v0"])
-def test_the_generic_backend_matches_the_env_stepped_by_hand_in_any_chunking(env_id):
-    task = GymTask(env_id)
-    network, prior = NetworkSpec(), PriorSpec()
-    settings = RWGSettings(policies=6, episodes=3, seed=4)
-    whole = run_rwg(task, network, prior, settings, backend="gym")
-    split = run_rwg(task, network, prior, RWGSettings(policies=6, episodes=3, seed=4, chunk_policies=4), backend="gym")
-    np.testing.assert_array_equal(whole.returns, split.returns)
-    np.testing.assert_array_equal(whole.steps, split.steps)
-    for n, e in [(0, 0), (5, 2), (3, 1)]:
-        expected, steps = reference_return(task, network, prior, 4, n, e)
-        assert whole.returns[n, e] == expected and whole.steps[n, e] == steps
-    if env_id == "CartPole-v1":  # +1 per step: the return counts the steps
-        np.testing.assert_array_equal(whole.returns, whole.steps)
-
-
-def middle(chunk: ReturnChunk) -> ReturnChunk:
-    """Policies 3, 4, 5 of a chunk that starts at policy 0."""
-    return ReturnChunk(chunk.policy[3:6], chunk.returns[3:6], chunk.steps[3:6], chunk.success[3:6])
-
-
-@pytest.mark.parametrize("workers", [2, 3])
-def test_worker_processes_give_the_returns_of_one_process(workers):
-    task, network, prior = GymTask("Pendulum-v1"), NetworkSpec(), PriorSpec()
-    one = run_rwg(task, network, prior, RWGSettings(policies=10, episodes=3, seed=2, workers=1), backend="gym")
-    done = {}
-    pool = run_rwg(task, network, prior, RWGSettings(policies=10, episodes=3, seed=2, chunk_policies=3,
-                                                     workers=workers),
-                   backend="gym", completed={(3, 6): middle(one)}, on_chunk=done.__setitem__)
-    np.testing.assert_array_equal(one.returns, pool.returns)
-    np.testing.assert_array_equal(one.steps, pool.steps)
-    assert sorted(done) == [(0, 3), (6, 9), (9, 10)]  # each chunk computed once, the one given not again
-
-
 class DictObservations(gymnasium.Env):
     """Observations as DM Control's reach gymnasium through Shimmy: a Dict of Boxes (and here a Discrete)."""
 
@@ -243,11 +190,6 @@ def test_mujocos_warnings_go_to_the_log_once_not_to_standard_error(capfd, caplog
     assert sum("settotalmass" in r.getMessage() for r in caplog.records) <= 1
 
 
-def test_rwg_workers_is_refused_below_zero():
-    with pytest.raises(ConfigError, match=r"rwg.workers must be an integer >= 0 \(0 = one per core\), got -1"):
-        RWGSettings(workers=-1).validate()
-
-
 def test_a_mujoco_id_needs_the_mujoco_extra_or_runs_with_it():
     try:
         import mujoco  # noqa: F401
@@ -291,26 +233,3 @@ def test_an_edit_to_the_envs_source_makes_it_a_new_task(tmp_path, monkeypatch):
     assert {k: v for k, v in before.items() if k != "source"} == {k: v for k, v in after.items() if k != "source"}
     del gymnasium.registry["EditedStill-v0"]
     sys.modules.pop("edited_lab", None)
-
-
-def slow_first_failing_second(task, network, prior, settings, start, stop):
-    """A worker's chunk (in place of rwg.workers._chunk): chunk 0 takes a second, chunk 1 fails at once."""
-    import time
-
-    if start == 1:
-        raise ValueError("boom")
-    if start == 0:
-        time.sleep(1.0)
-    return ReturnChunk(np.arange(start, stop), np.zeros((stop - start, 2)), np.ones((stop - start, 2), dtype=np.int64),
-                       np.zeros((stop - start, 2), dtype=bool))
-
-
-def test_a_failing_chunk_lets_the_running_ones_finish_and_keeps_them(monkeypatch):
-    from taskcomplexity.rwg import workers
-
-    monkeypatch.setattr(workers, "_chunk", slow_first_failing_second)  # the forked workers inherit it
-    done = {}
-    with pytest.raises(ValueError, match="boom"):
-        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(),
-                               [(0, 1), (1, 2), (2, 3), (3, 4)], 2, done.__setitem__)
-    assert (0, 1) in done and (1, 2) not in done  # chunk 0 was running when chunk 1 failed: it is kept

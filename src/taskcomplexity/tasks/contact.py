@@ -41,7 +41,7 @@ LINK_FRICTION = 0.5  # PyBullet's default lateral friction of a URDF link withou
 BLOCK_FRICTION = 1.0  # pybullet_data block.urdf's lateral friction
 # Bullet's solver stops after its first sweep when the forearm's (inert) contact with the ground plane is in
 # the same solve (see single_sweep). The rates are measured on PyBullet 3.2.7 by bench/calibrate_contacts.py
-# (`make calibrate-contacts`; tests/tasks/test_contact_calibration.py holds them within 3 standard errors):
+# (`make calibrate-contacts`; tests/rwg/test_contact_calibration.py holds them within 3 standard errors):
 # in random-policy episodes of two_link_obstacle-dense (N = 300 × M = 5, seed 0) the plane contact is
 # present at 46–49 % of the steps where one sweep and convergence differ; a sweep-1 exit follows at 75 % of
 # those where the block contact is new (no overlap at the previous physics step) and at 3.8 % of the others,
