@@ -128,7 +128,7 @@ PINNED_TESTS := tests/golden tests/metrics/test_log_mean_exp.py tests/tasks/test
 	tests/tasks/test_noisy_cartpole.py
 
 # The tests that run only with the atlas extra (MuJoCo, DM Control, EnvPool); make test skips them without it.
-ATLAS_TESTS := tests/tasks/test_envpool_backend.py tests/tasks/test_gym_task.py tests/test_policies.py
+ATLAS_TESTS := tests/rwg/test_envpool_backend.py tests/tasks/test_gym_task.py tests/policies/test_policies.py
 
 test-atlas: $(STAMP) ## installs the atlas extra and runs the tests that need it: EnvPool against gymnasium per task (minutes)
 	$(PY) -m pip install --quiet -e '.[atlas]'
