@@ -90,48 +90,63 @@ class GymRollout:
         task = self.task
         n_pol = len(policies)
         width = slots_per_policy(n_pol, episodes, environments_in_flight(task))
-        envs = self._pool(n_pol * width)
+        slots = n_pol * width
+        envs = self._pool(slots)
         rows = policies.indices[:, None] * (not common_initial_states)  # common: every policy resets as policy 0
-        seeds = episode_reset_seeds(seed, rows, np.arange(episodes)[None, :])
+        seeds = episode_reset_seeds(seed, rows, np.arange(episodes)[None, :]).tolist()
         returns = np.zeros((n_pol, episodes))
         steps = np.zeros((n_pol, episodes), dtype=np.int64)
         success = np.zeros((n_pol, episodes), dtype=bool)
-
-        slot_policy = np.repeat(np.arange(n_pol), width)
-        slot_episode = np.tile(np.arange(width), n_pol)  # current episode of each slot (>= M: idle)
-        obs = np.zeros((n_pol * width, task.observation_size))
-        active = slot_episode < episodes
         limit = task.max_steps
         space_in, space_out = task.observation_space, task.action_space
+        box_in, box_out = isinstance(space_in, spaces.Box), isinstance(space_out, spaces.Box)
+        obs = np.zeros((slots, task.observation_size))
+        inputs = list(obs)  # each slot's row of the policies' input (a view)
+        indices = policies.indices.tolist()
+        # Per slot, as Python numbers (the loop below runs once per environment step): its policy's position, the
+        # episode it runs (>= M: idle), that episode's steps and return so far (a float64 sum in step order, as the
+        # return matrix would add it).
+        slot_policy = [slot // width for slot in range(slots)]
+        slot_episode = [slot % width for slot in range(slots)]
+        slot_steps = [0] * slots
+        slot_return = [0.0] * slots
+
+        def encode(slot: int, observation: np.ndarray) -> None:
+            if box_in:  # a Box observation flattened into float64 (what encode_observations gives)
+                inputs[slot][:] = observation.reshape(-1)
+            else:
+                inputs[slot][:] = encode_observations(space_in, observation[None])[0]
 
         def start(slot: int) -> None:
-            reset_seed = int(seeds[slot_policy[slot], slot_episode[slot]])
-            first = reset_env(task, envs[slot], reset_seed, policy=int(policies.indices[slot_policy[slot]]),
-                              episode=int(slot_episode[slot]))
-            obs[slot] = encode_observations(space_in, first[None])[0]
+            p, e = slot_policy[slot], slot_episode[slot]
+            encode(slot, reset_env(task, envs[slot], seeds[p][e], policy=indices[p], episode=e))
 
-        for slot in np.flatnonzero(active):
+        active = [slot for slot in range(slots) if slot_episode[slot] < episodes]
+        for slot in active:
             start(slot)
         with torch.no_grad():
-            while active.any():
+            while active:
                 outputs = policies.act(torch.from_numpy(obs.reshape(n_pol, width, -1))).numpy()
-                outputs = policies.unit_outputs(outputs, isinstance(space_out, spaces.Box))  # (−1, 1) for a Box
-                actions = decode_actions(space_out, outputs.reshape(n_pol * width, -1))
-                for slot in np.flatnonzero(active):
+                outputs = policies.unit_outputs(outputs, box_out)  # (−1, 1) for a Box
+                actions = decode_actions(space_out, outputs.reshape(slots, -1))
+                running = []
+                for slot in active:
                     p, e = slot_policy[slot], slot_episode[slot]
-                    n, step = int(policies.indices[p]), int(steps[p, e]) + 1
+                    n, step = indices[p], slot_steps[slot] + 1
                     new, reward, terminated, truncated, info = step_env(task, envs[slot], actions[slot], step,
-                                                                        policy=n, episode=int(e))
-                    returns[p, e] += check_reward(task, reward, n, int(e), step)
-                    steps[p, e] += 1
-                    if terminated or truncated or steps[p, e] >= limit:
+                                                                        policy=n, episode=e)
+                    total = slot_return[slot] + check_reward(task, reward, n, e, step)
+                    if terminated or truncated or step >= limit:
+                        returns[p, e], steps[p, e] = total, step
                         success[p, e] = bool(info.get("is_success", info.get("success", False)))
-                        slot_episode[slot] += width
-                        if slot_episode[slot] < episodes:
+                        slot_steps[slot], slot_return[slot] = 0, 0.0
+                        slot_episode[slot] = e + width
+                        if e + width < episodes:
                             start(slot)
-                        else:
-                            active[slot] = False
+                            running.append(slot)
                     else:
-                        new = check_observation(task, new, policy=n, episode=int(e), step=step)
-                        obs[slot] = encode_observations(space_in, new[None])[0]
+                        slot_steps[slot], slot_return[slot] = step, total
+                        encode(slot, check_observation(task, new, policy=n, episode=e, step=step))
+                        running.append(slot)
+                active = running
         return returns, steps, success
