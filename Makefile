@@ -125,7 +125,7 @@ test: $(STAMP) ## run the test suite (CI runs it, then make test-cluster and mak
 # The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
 PINNED_TESTS := tests/golden tests/metrics/test_log_mean_exp.py tests/tasks/test_batched.py \
 	tests/tasks/test_rollout_kernel.py tests/tasks/test_step_kernel.py tests/tasks/test_contact.py \
-	tests/tasks/test_noisy_cartpole.py
+	tests/tasks/test_noisy_cartpole.py tests/policies/test_tanh.py
 
 # The tests that run only with the atlas extra (MuJoCo, DM Control, EnvPool); make test skips them without it.
 ATLAS_TESTS := tests/rwg/test_envpool_backend.py tests/tasks/test_gym_task.py tests/policies/test_policies.py

@@ -10,4 +10,8 @@ movement_primitives
     Dynamic movement primitives: the basis functions and the integration of one primitive.
 primitives
     The movement-primitive family: random DMP weights per joint, rolled out against the task's observations.
+tanh
+    The forward pass's tanh: NumPy's where NumPy runs its AVX-512 loop, the numba kernel elsewhere.
+tanh_kernel
+    tanh of float64 arrays as a numba loop of the CPU's vector width, its arithmetic pinned on every CPU path.
 """

@@ -96,8 +96,15 @@ class NetworkSpec:
         return list(zip(sizes[:-1], sizes[1:], strict=True))
 
     def identity(self) -> dict:
-        """The fields that key the returns (the newer ones only when they differ from their defaults)."""
-        return _identity(self, self.ADDED)
+        """The fields that key the returns (the newer ones only when they differ from their defaults), and the
+        forward pass's tanh where it is not NumPy's (:func:`taskcomplexity.policies.tanh.implementation`: the last
+        bits of its values differ; every network of the family computes a tanh, in its units or its output)."""
+        from taskcomplexity.policies.tanh import NUMPY, implementation
+
+        fields = _identity(self, self.ADDED)
+        if implementation() != NUMPY:
+            fields["tanh"] = implementation()
+        return fields
 
     @property
     def tag(self) -> str:
@@ -203,7 +210,9 @@ class PolicyBatch:
         outputs.
         """
         if box and self.output == "linear":
-            return np.tanh(outputs)
+            from taskcomplexity.policies.tanh import tanh
+
+            return tanh(outputs)
         return outputs
 
     def __len__(self) -> int:
@@ -293,7 +302,10 @@ class PolicyBatch:
 
     def _forward(self, x: np.ndarray, out: np.ndarray, start: int, stop: int, step: int) -> None:
         # NumPy's stacked matmul runs float64 batched products 2-3× faster than torch.bmm on this
-        # CPU (bench/bench_rwg.py); the arrays are shared, not copied.
+        # CPU (bench/bench_rwg.py); the arrays are shared, not copied. tanh is NumPy's where NumPy has its AVX-512
+        # loop, else a numba kernel of the CPU's vector width (taskcomplexity.policies.tanh).
+        from taskcomplexity.policies.tanh import tanh
+
         last = len(self.weights) - 1
         for a in range(start, stop, step):
             b = min(a + step, stop)
@@ -303,9 +315,9 @@ class PolicyBatch:
                 if self.biases is not None:
                     h += self.biases[i].numpy()[a:b]
                 if i < last:
-                    h = np.maximum(h, 0.0, out=h) if self.activation == "relu" else np.tanh(h, out=h)
+                    h = np.maximum(h, 0.0, out=h) if self.activation == "relu" else tanh(h, out=h)
                 elif self.output == "tanh":
-                    h = np.tanh(h, out=h)
+                    h = tanh(h, out=h)
             out[a:b] = h
 
 

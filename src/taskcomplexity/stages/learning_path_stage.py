@@ -120,9 +120,13 @@ def chosen_snapshots(count: int, every: int) -> list[int]:
 
 def learning_path_key(request: RWGRequest, sac_key: str, settings: LearningPathSettings, metrics: MetricsSettings,
                       registry: Registry) -> str:
+    from taskcomplexity.policies.tanh import NUMPY, implementation
+
     rwg = request.identity()
     kept = ("task", "backend", "simulator", "contacts", "common_initial_states")
     episodes = {k: v for k, v in rwg.items() if k in kept}
+    if implementation() != NUMPY:  # the actors' tanh output, where its last bits are not NumPy's
+        episodes["tanh"] = implementation()
     return stage_key(STAGE, NUMERICS, {"episodes": episodes, "sac": sac_key, **settings.identity(),
                                       "estimation": metrics.identity(), "metrics": registry.signature(STAGE)})
 

@@ -45,7 +45,8 @@ log = logging.getLogger(__name__)
 
 STAGE = "rwg"
 EPISODES = (
-    "policies.mlp", "policies.primitives", "policies.movement_primitives", "seeding",
+    "policies.mlp", "policies.tanh", "policies.tanh_kernel", "policies.primitives", "policies.movement_primitives",
+    "seeding",
     "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.batch", "rwg.arm_resets",
     "rwg.batched_backend",
     "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend", "rwg.envpool_backend",

@@ -47,7 +47,7 @@ log = logging.getLogger(__name__)
 STAGE = "sac"
 NUMERICS = Numerics(version=1, modules=(
     "rl.settings", "rl.train", "rl.factories", "rl.layers", "rl.objective", "rl.her", "rl.evaluation", "rl.snapshots",
-    "policies.mlp",
+    "policies.mlp", "policies.tanh", "policies.tanh_kernel",
     "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.reward_kinds", "tasks.urdf",
     "tasks.pybullet_env", "tasks.goal_env", "tasks.gym_task", "tasks.batched_vector", "tasks.batched",
     "tasks.step_kernel", "tasks.dynamics", "tasks.rollout_kernel", "tasks.contact", "tasks.manipulation",
