@@ -15,13 +15,28 @@ Per task and policy network, environment steps per second of
 ``make_vec`` and envpool auto-reset from their own generators (seeded by the run seed), so they run the
 same policies on the same kind of work, not the same episodes. Every figure is the median of the
 repeats; a first small run of each backend (numba compilation, env construction) is not timed.
+
+Then both CPU paths side by side (``--paths-repeats 0`` skips it): the classic-control study, ``pipelines/study.py
+study=classic_control`` at N = M = ``--paths-policies`` (RWG, metrics, diagnostics, verdict and report, in fresh
+outputs each run), run natively and on the AVX2 path of numba, NumPy, torch and the BLAS (``tests/cpu_paths.py``),
+native and AVX2 in turn; per path its CPU seconds (median, min, max), the ratio AVX2 / native of each pair, and
+whether the report's printed tables are the same on both. Each path's numba kernels are compiled by a first run that
+is not timed. Before it, the forward pass's tanh on each path: NumPy's and the kernel's
+(:mod:`taskcomplexity.policies.tanh`), ns per value.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import re
+import resource
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -32,6 +47,12 @@ from taskcomplexity.rwg import RWGSettings, run_rwg
 from taskcomplexity.tasks.base import decode_actions
 from taskcomplexity.tasks.classic import KERNELS
 from taskcomplexity.tasks.gym_task import GymTask
+
+ROOT = Path(__file__).resolve().parent.parent
+GOAL = 1.25
+"""The AVX2 path's CPU seconds at most this many times the native path's, on the same machine."""
+VECTOR_FLAGS = ("avx512f", "avx512bw", "avx512vl", "avx2", "fma", "avx", "sse4_2", "asimd", "sve")
+"""The /proc/cpuinfo flags that decide the code paths numba, NumPy, torch and the BLAS take."""
 
 NETWORKS = {
     "mlp32": NetworkSpec(),  # the arms' default: 32 → ReLU → 32 → ReLU → tanh
@@ -103,6 +124,101 @@ def envpool_maker(env_id):
     return lambda n: envpool.make(env_id, env_type="gymnasium", num_envs=n, seed=0)
 
 
+def cpu_line() -> str:
+    """The CPU model and its vector extensions."""
+    info = Path("/proc/cpuinfo").read_text() if Path("/proc/cpuinfo").exists() else ""
+    model = re.search(r"^(?:model name|Model)\s*:\s*(.+)$", info, flags=re.MULTILINE)
+    flags = re.search(r"^(?:flags|Features)\s*:\s*(.+)$", info, flags=re.MULTILINE)
+    present = set(flags.group(1).split()) if flags else set()
+    return f"CPU {model.group(1).strip() if model else 'unknown'} ({' '.join(f for f in VECTOR_FLAGS if f in present)})"
+
+
+def path_environments(numba_cache: str) -> dict[str, dict[str, str]]:
+    """The environment of each CPU path: this process's, and tests/cpu_paths.py's AVX2 path (numba's kernels for it
+    cached in ``numba_cache``)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from cpu_paths import avx2_environment
+
+    return {"native": dict(os.environ), "AVX2": {**os.environ, **avx2_environment(numba_cache)}}
+
+
+def child_cpu(command: list[str], env: dict[str, str]) -> tuple[float, subprocess.CompletedProcess]:
+    """Run ``command``; its CPU seconds (its process and those it waited for) and its completed process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), done
+
+
+def report_tables(outputs: Path) -> dict[str, str]:
+    """The report's Markdown tables (name → text): the digits it prints (its CSV files hold every float's last bits,
+    which NumPy's exp and log round differently on the two paths)."""
+    return {p.name: p.read_text() for p in sorted(outputs.glob("reports/*/*/tables/*.md"))}
+
+
+def study_run(policies: int, env: dict[str, str]) -> tuple[float, dict[str, str]]:
+    """The classic-control study at N = M = ``policies`` in fresh outputs: its CPU seconds and its report's tables."""
+    with tempfile.TemporaryDirectory(prefix="bench-classic-paths-") as outputs:
+        command = [sys.executable, str(ROOT / "pipelines" / "study.py"), "study=classic_control",
+                   f"study.policies={policies}", f"study.episodes={policies}"]
+        cpu, _ = child_cpu(command, {**env, "TASKCOMPLEXITY_OUTPUTS": outputs})
+        return cpu, report_tables(Path(outputs))
+
+
+TANH_TIMING = """
+import time, numpy as np
+from taskcomplexity.policies.tanh import implementation
+from taskcomplexity.policies.tanh_kernel import tanh_kernel
+x = np.random.default_rng(0).normal(0.0, 5.0, (2, 1000, 64)); out = np.empty_like(x)
+def ns(f):
+    f(); best = float("inf")
+    for _ in range(7):
+        start = time.process_time()
+        for _ in range(20): f()
+        best = min(best, (time.process_time() - start) / 20 / x.size * 1e9)
+    return best
+print(f"{ns(lambda: np.tanh(x, out=out)):.2f} {ns(lambda: tanh_kernel(x, out)):.2f} {implementation()}")
+"""
+"""Prints NumPy's and the kernel's ns per float64 tanh value (the best of 7 × 20 calls on classic control's hidden
+layer shape, one thread) and the one the forward pass takes."""
+
+
+def compare_paths(policies: int, repeats: int) -> None:
+    """The classic-control study on both CPU paths, side by side (module docstring)."""
+    with tempfile.TemporaryDirectory(prefix="bench-classic-numba-avx2-") as numba_cache:
+        envs = path_environments(numba_cache)
+        print(f"\nboth CPU paths, {cpu_line()}, {os.cpu_count()} cores")
+        for name, env in envs.items():
+            described = subprocess.run([sys.executable, "-c", "import sys; sys.path.insert(0, 'tests'); "
+                                        "from cpu_paths import describe; print(describe())"],
+                                       cwd=ROOT, env=env, capture_output=True, text=True).stdout.strip()
+            numpy_ns, kernel_ns, chosen = child_cpu([sys.executable, "-c", TANH_TIMING], env)[1].stdout.split()
+            print(f"  {name:<7} {described}")
+            print(f"  {'':<7} float64 tanh, ns per value: NumPy {numpy_ns}, kernel {kernel_ns}; "
+                  f"the forward pass takes {chosen}'s")
+        print(f"the classic-control study at N = M = {policies} ({policies**2:,} episodes per task; "
+              f"fresh outputs each run), CPU seconds over {repeats} runs per path after one untimed run each")
+        for env in envs.values():  # compiles (or loads) each path's numba kernels
+            study_run(policies, env)
+        cpu: dict[str, list[float]] = {name: [] for name in envs}
+        tables: dict[str, dict[str, str]] = {}
+        for _ in range(repeats):
+            for name, env in envs.items():
+                seconds, tables[name] = study_run(policies, env)
+                cpu[name].append(seconds)
+        print(f"{'path':<9}{'CPU-s':>9}{'min':>9}{'max':>9}")
+        for name, seconds in cpu.items():
+            print(f"{name:<9}{statistics.median(seconds):>9.1f}{min(seconds):>9.1f}{max(seconds):>9.1f}")
+        ratios = [a / n for a, n in zip(cpu["AVX2"], cpu["native"], strict=True)]
+        print(f"AVX2 / native: {statistics.median(ratios):.2f} (each pair: {', '.join(f'{r:.2f}' for r in ratios)}; "
+              f"goal <= {GOAL})")
+        differ = sorted(n for n in tables["native"] if tables["native"][n] != tables["AVX2"].get(n))
+        same = "the same on both paths" if not differ else "differ: " + ", ".join(differ)
+        print(f"the report's printed tables: {same} ({len(tables['native'])} files)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--ids", nargs="+", default=sorted(KERNELS))
@@ -113,6 +229,8 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, default=256, help="make_vec / envpool width")
     parser.add_argument("--vector-steps", type=int, default=100, help="make_vec / envpool steps per run")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--paths-policies", type=int, default=300, help="N = M of the study on both CPU paths")
+    parser.add_argument("--paths-repeats", type=int, default=3, help="timed study runs per CPU path (0: skip)")
     args = parser.parse_args()
 
     import gymnasium
@@ -139,6 +257,8 @@ def main() -> None:
                                args.repeats) if pooled is not None else float("nan")
             print(f"{env_id:<26}{name:<11}{kernel:>11,.0f}{bound:>11,.0f}{gym:>10,.0f}{kernel / gym:>7.1f}"
                   f"{vec:>10,.0f}{kernel / vec:>7.1f}{pool:>10,.0f}{kernel / pool:>7.1f}", flush=True)
+    if args.paths_repeats:
+        compare_paths(args.paths_policies, args.paths_repeats)
 
 
 if __name__ == "__main__":

@@ -37,7 +37,7 @@ PAGE = ROOT / "docs" / "benchmarks" / "results.md"
 
 QUICK: dict[str, list[str]] = {
     "bench_classic": ["--policies", "32", "--episodes", "16", "--gym-policies", "2", "--vector-steps", "20",
-                      "--repeats", "1"],
+                      "--repeats", "1", "--paths-policies", "60", "--paths-repeats", "1"],
     "bench_contacts": ["--policies", "100", "--episodes", "20"],
     "bench_diagnostics": ["--policies", "200", "--episodes", "100", "--resamples", "100", "--repeats", "1",
                           "--skip-old"],
