@@ -15,9 +15,13 @@ gymnasium's (another generator draws them from the same distribution), so the re
 same distribution; ``tests/rwg/test_envpool_backend.py`` tests that per id, and the RWG key holds the simulator
 (:func:`simulator`). With common initial states every policy's environment gets policy 0's seed.
 
-**Per step.** One forward pass over the policies whose episodes still run (the batch drops a policy once it has run
-its M episodes) and one ``step`` of exactly their environments; an environment whose episode ended is reset
-explicitly before its next episode, so EnvPool's auto-reset never runs.
+**Per step.** The batch's policies are split into :data:`POOLS` groups, each with a pool of its own, stepped in turn:
+while one pool steps its environments on EnvPool's threads, the next group's policies compute their actions. Per
+group and step, one forward pass over its policies whose episodes still run (a group stops computing the policies
+that have run their M episodes once they are half of those it computes) and one ``step`` of exactly their
+environments; an environment whose episode ended is sent with the next step and EnvPool resets it then (its
+auto-reset: the episode's first observation comes back in that step's answer, with no call of its own). Each
+environment is its policy's alone, so the returns do not depend on the groups (``tests/rwg/test_envpool_pools.py``).
 """
 
 from __future__ import annotations
@@ -41,6 +45,10 @@ MuJoCo one ~0.7 MB and ~2 ms."""
 RESET_STREAM = 2**31 - 1
 """The episode index whose reset seed (seed, n, ·) seeds policy n's environment: outside any run's episodes, so the
 generator is not one a gym-backend episode of the same run is reset with."""
+POOLS = 2
+"""Pools a batch's policies are split into, stepped in turn: one pool steps its environments on EnvPool's threads
+while the next group's policies compute their actions, so the threads do not wait for the forward pass (1: one
+pool in lock-step). The returns do not depend on it (each environment is its policy's alone)."""
 
 
 def simulator(task, backend: str) -> str | None:
@@ -90,6 +98,86 @@ def observation_keys(pool) -> tuple[str, ...] | None:
     return tuple(space.spaces) if isinstance(space, spaces.Dict) else None
 
 
+class _Group:
+    """Some policies of a batch, each with one environment of a pool of their own, stepped in lock-step: the episode
+    loop of :func:`run_envpool` for them, split where the pool steps (:meth:`send` starts a step after the forward
+    pass, :meth:`receive` books its answer and resets the episodes that ended), so that another group's pool steps
+    while these policies compute their actions. Returns and steps go into the batch's arrays, at the group's rows."""
+
+    def __init__(self, task, policies: ActingBatch, members: np.ndarray, episodes: int, returns: np.ndarray,
+                 steps: np.ndarray):
+        self.task, self.policies, self.members, self.episodes = task, policies, members, episodes
+        self.returns, self.steps = returns, steps
+        self.box = isinstance(task.action_space, spaces.Box)
+        self.pool, self.keys = None, None
+        self.episode = np.zeros(len(members), dtype=np.int64)  # the episode each environment runs
+        self.obs = np.zeros((len(members), task.observation_size))
+        self.rows = np.arange(len(members))  # the environments whose policies still run, ascending
+        self.restarting = np.zeros(len(members), dtype=bool)  # ended an episode: reset on its next send
+        self.computed = self.rows  # the environments whose policies the forward pass runs (running or not), ascending
+        self.acting = policies.select(members)  # their policies, in that order
+        self.stepping = False
+
+    def open(self, seeds: np.ndarray) -> None:
+        """Make the group's pool (environment i seeded ``seeds[members[i]]``) and reset it."""
+        self.pool = make_pool(self.task, seeds[self.members])
+        self.keys = observation_keys(self.pool)
+        first, _ = self.pool.reset()
+        self.obs[:] = _flat(first, self.keys)
+
+    def send(self) -> None:
+        """The running policies' actions, sent to their environments (the pool steps them on its threads); an
+        environment whose episode ended is sent too, and EnvPool resets it instead (its action is not used)."""
+        if not self.rows.size:
+            return
+        outputs = self.acting.act(torch.from_numpy(self.obs[self.computed][:, None, :])).numpy()
+        if len(self.computed) > len(self.rows):  # each policy's outputs are its own, whatever else is computed
+            outputs = outputs[np.searchsorted(self.computed, self.rows)]
+        actions = decode_actions(self.task.action_space, self.acting.unit_outputs(outputs, self.box)[:, 0, :])
+        self.pool.send(actions, env_id=self.rows)
+        self.stepping = True
+
+    def receive(self) -> None:
+        """Wait for the pool's step, book its rewards, mark the environments whose episode ended for a reset (drop the
+        policies that ran their last)."""
+        new, reward, terminated, truncated, info = self.pool.recv()
+        self.stepping = False
+        task, rows = self.task, self.rows
+        at = np.argsort(np.asarray(info["env_id"]), kind="stable")  # EnvPool's answer in the rows' order
+        self.obs[rows] = _flat(new, self.keys)[at]
+        stepped = ~self.restarting[rows]  # the others answered with their next episode's first observation
+        self.restarting[rows] = False
+        rows = rows[stepped]
+        positions, e = self.members[rows], self.episode[rows]
+        reward = np.asarray(reward, dtype=np.float64)[at][stepped]
+        if not np.all(np.isfinite(reward)):
+            bad = int(np.flatnonzero(~np.isfinite(reward))[0])
+            raise EnvError(f"task.env_id={task.env_id} on EnvPool returned reward {reward[bad]} for policy "
+                           f"{int(self.policies.indices[positions[bad]])}, episode {int(e[bad])}, step "
+                           f"{int(self.steps[positions[bad], e[bad]]) + 1}")
+        self.returns[positions, e] += reward
+        self.steps[positions, e] += 1
+        ended = ((np.asarray(terminated) | np.asarray(truncated))[at][stepped]
+                 | (self.steps[positions, e] >= task.max_steps))
+        if ended.any():
+            done = rows[ended]
+            self.episode[done] += 1
+            self.restarting[done] = True  # EnvPool resets an environment whose episode ended when it is sent next
+            if np.any(self.episode[done] >= self.episodes):  # a policy ran its last episode
+                self.rows = self.rows[self.episode[self.rows] < self.episodes]
+                if 2 * len(self.rows) <= len(self.computed):  # the forward pass drops them once half have ended
+                    self.computed, self.acting = self.rows, self.policies.select(self.members[self.rows])
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.close()
+
+
+TORCH_THREADS = 1
+"""Torch's threads while EnvPool steps: the forward pass is NumPy's, on this thread, and a torch operation (selecting
+the running policies) would wake torch's OpenMP threads, which spin on the cores EnvPool's threads step on."""
+
+
 def run_envpool(task, policies: ActingBatch, seed: int, episodes: int, common_initial_states: bool = False):
     """Every episode of every policy of the batch.
 
@@ -110,46 +198,26 @@ def run_envpool(task, policies: ActingBatch, seed: int, episodes: int, common_in
     DM Control tasks report none).
     """
     n_pol = len(policies)
-    pool = make_pool(task, environment_seeds(seed, policies.indices, common_initial_states))
-    keys = observation_keys(pool)
-    space_out = task.action_space
-    box = isinstance(space_out, spaces.Box)
+    seeds = environment_seeds(seed, policies.indices, common_initial_states)
     returns = np.zeros((n_pol, episodes))
     steps = np.zeros((n_pol, episodes), dtype=np.int64)
-    episode = np.zeros(n_pol, dtype=np.int64)  # the episode each policy's environment runs
-    obs = np.zeros((n_pol, task.observation_size))
+    groups = [_Group(task, policies, rows, episodes, returns, steps)
+              for rows in np.array_split(np.arange(n_pol), min(POOLS, n_pol))]
+    threads = torch.get_num_threads()
+    torch.set_num_threads(TORCH_THREADS)
     try:
-        first, _ = pool.reset()
-        obs[:] = _flat(first, keys)
-        rows = np.arange(n_pol)  # the policies whose episodes still run, ascending (the rows of ``acting``)
-        acting = policies
+        for group in groups:
+            group.open(seeds)
         with torch.no_grad():
-            while rows.size:
-                outputs = acting.act(torch.from_numpy(obs[rows][:, None, :])).numpy()
-                actions = decode_actions(space_out, acting.unit_outputs(outputs, box)[:, 0, :])
-                new, reward, terminated, truncated, info = pool.step(actions, env_id=rows)
-                at = np.argsort(np.asarray(info["env_id"]), kind="stable")  # EnvPool's answer in the rows' order
-                e = episode[rows]
-                reward = np.asarray(reward, dtype=np.float64)[at]
-                if not np.all(np.isfinite(reward)):
-                    bad = int(np.flatnonzero(~np.isfinite(reward))[0])
-                    raise EnvError(f"task.env_id={task.env_id} on EnvPool returned reward {reward[bad]} for policy "
-                                   f"{int(policies.indices[rows[bad]])}, episode {int(e[bad])}, step "
-                                   f"{int(steps[rows[bad], e[bad]]) + 1}")
-                returns[rows, e] += reward
-                steps[rows, e] += 1
-                obs[rows] = _flat(new, keys)[at]
-                ended = (np.asarray(terminated) | np.asarray(truncated))[at] | (steps[rows, e] >= task.max_steps)
-                if ended.any():
-                    done = rows[ended]
-                    episode[done] += 1
-                    again = done[episode[done] < episodes]
-                    if again.size:
-                        restarted, info = pool.reset(again)
-                        obs[again] = _flat(restarted, keys)[np.argsort(np.asarray(info["env_id"]), kind="stable")]
-                    if again.size < done.size:  # a policy ran its last episode: the forward pass drops it
-                        rows = rows[episode[rows] < episodes]
-                        acting = policies.select(rows)
+            for group in groups:  # each pool's first step starts while the next one's actions are computed
+                group.send()
+            while any(group.stepping for group in groups):
+                for group in groups:
+                    if group.stepping:
+                        group.receive()
+                        group.send()
     finally:
-        pool.close()
+        torch.set_num_threads(threads)
+        for group in groups:
+            group.close()
     return returns, steps, np.zeros((n_pol, episodes), dtype=bool)
