@@ -41,6 +41,7 @@ QUICK: dict[str, list[str]] = {
     "bench_contacts": ["--policies", "100", "--episodes", "20"],
     "bench_diagnostics": ["--policies", "200", "--episodes", "100", "--resamples", "100", "--repeats", "1",
                           "--skip-old"],
+    "bench_gym": ["--steps", "3000", "--policies", "8", "--episodes", "8", "--repeats", "1"],
     "bench_kernel_split": ["--policies", "20", "--episodes", "100", "--repeats", "1"],
     "bench_metaworld": ["--tasks", "reach,stick-push", "--steps", "500", "--policies", "8", "--episodes", "4",
                         "--repeats", "1"],
