@@ -105,6 +105,14 @@ def _tanh_flat(src, dst):
         dst[i] = _tanh(src[i])
 
 
+@numba.njit(nogil=True, cache=True, error_model="numpy")
+def _tanh_in_place(values):
+    # one array: the compiler's vector loop needs no check that two arrays overlap (for src is dst, _tanh_flat's
+    # check fails and it runs its scalar loop)
+    for i in range(values.shape[0]):
+        values[i] = _tanh(values[i])
+
+
 def tanh_kernel(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """tanh of every value of the float64 array ``x`` (module docstring), into ``out``.
 
@@ -125,7 +133,9 @@ def tanh_kernel(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         out = np.empty_like(x, order="C")
     if out.shape != x.shape or out.dtype != np.float64:
         raise ValueError(f"out must be a float64 array of shape {x.shape}, got {out.dtype} {out.shape}")
-    if x.flags.c_contiguous and out.flags.c_contiguous:
+    if out is x and x.flags.c_contiguous:
+        _tanh_in_place(x.reshape(-1))
+    elif x.flags.c_contiguous and out.flags.c_contiguous and not np.may_share_memory(x, out):
         _tanh_flat(x.reshape(-1), out.reshape(-1))
     else:
         result = np.empty(x.shape)
