@@ -152,8 +152,12 @@ test-manipulation: $(STAMP) ## installs the metaworld extra and runs the tests t
 	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
 	$(PY) -m pytest -q tests/tasks/test_manipulation.py
 
+# The cluster tests to run (a pytest -m expression): CI runs those that wait on SLURM beside make test, and the ones
+# that install an extra into .venv (marker `installs`) after it, alone (.ci/run).
+CLUSTER_TESTS ?= cluster
+
 test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the local cluster (starts it; make cluster-down stops it)
-	$(PY) -m pytest -q -m cluster
+	$(PY) -m pytest -q -m "$(CLUSTER_TESTS)"
 
 test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass)
 	$(PY) tests/cpu_paths.py -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)

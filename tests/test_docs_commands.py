@@ -110,6 +110,13 @@ CLUSTER = {
 """Blocks that send jobs to the local SLURM cluster (``make cluster-up``): run by ``make test-cluster`` (marker
 ``cluster``), as CI does between starting and stopping the cluster."""
 
+INSTALLS = {
+    "make atlas-cluster PARTITION=local": "its recipe installs the atlas extra (pip install -e '.[atlas]')",
+}
+"""Blocks that install an extra into ``.venv`` (marker ``installs``): the package is reinstalled, and a process
+that imports it meanwhile fails, so nothing runs beside them. CI runs the other cluster tests beside ``make test``
+and these after it (``.ci/run``); ``test_the_blocks_that_install_an_extra_are_marked`` keeps the list whole."""
+
 DRIFT = '''"""The tutorial's own env: a point drifting on a line, pushed by the action (test_docs_commands)."""
 import gymnasium as gym
 import numpy as np
@@ -189,8 +196,13 @@ def on_cluster(block: Block) -> str | None:
     return next((why for start, why in CLUSTER.items() if block.text.startswith(start)), None)
 
 
+def installs(block: Block) -> str | None:
+    return next((why for start, why in INSTALLS.items() if block.text.startswith(start)), None)
+
+
 def marks(block: Block) -> list:
-    return [*([pytest.mark.slow] if slow(block) else []), *([pytest.mark.cluster] if on_cluster(block) else [])]
+    return [*([pytest.mark.slow] if slow(block) else []), *([pytest.mark.cluster] if on_cluster(block) else []),
+            *([pytest.mark.installs] if installs(block) else [])]
 
 
 ALL = [block for page in PAGES for block in blocks(page)]
@@ -277,6 +289,14 @@ def test_every_budget_substitution_is_used():
     assert unused == []
 
 
+def test_the_blocks_that_install_an_extra_are_marked():
+    # CI runs the cluster tests beside make test, but a block that installs into .venv only after it: the blocks
+    # whose script (make targets expanded) runs pip install are those of INSTALLS
+    environment = user_environment(ROOT, ROOT / "outputs")
+    pip = {b.id for b in RUNNABLE if re.search(r"\bpip install\b", expand_make(commands(b), environment))}
+    assert pip == {b.id for b in RUNNABLE if installs(b)} and pip
+
+
 def test_no_block_needs_an_activated_virtualenv():
     # `python …` works only after `source .venv/bin/activate`; the pages write .venv/bin/python (or make).
     bare = [b.id for b in ALL if re.search(r"(^|[\s;&|(])(python3?|pip|pytest|mkdocs)\s", commands(b), re.MULTILINE)]
@@ -305,6 +325,7 @@ def test_every_unmarked_block_ran(request):
             assert block.page.name in (ROOT / run_elsewhere(block)).read_text(encoding="utf-8"), block.id
     assert all(any(block.text.startswith(start) for block in RUNNABLE) for start in SLOW), "a stale SLOW entry"
     assert all(any(block.text.startswith(start) for block in RUNNABLE) for start in CLUSTER), "a stale CLUSTER entry"
+    assert all(any(block.text.startswith(start) for block in RUNNABLE) for start in INSTALLS), "a stale INSTALLS entry"
     if getattr(request.config.option, "dist", "no") not in ("no", "loadfile"):
         pytest.skip("the blocks ran on other workers")   # make test: --dist loadfile keeps this file on one worker
     selected = {item.callspec.id for item in request.session.items
