@@ -36,6 +36,7 @@ KERNEL_SETS: tuple[tuple[str, str], ...] = (
     ("taskcomplexity.tasks.classic", "classic-control"),
     ("taskcomplexity.tasks", "reaching-arm"),
     ("taskcomplexity.metrics", "estimator"),
+    ("taskcomplexity.policies.tanh_kernel", "forward-pass tanh"),
     ("taskcomplexity.policies", "movement-primitive"),
 )
 """(module prefix, set name), the most specific prefix first: a kernel belongs to the set of the first prefix

@@ -78,7 +78,7 @@ def _fma(typingctx, a, b, c):
     return types.float64(types.float64, types.float64, types.float64), codegen
 
 
-@numba.njit(inline="always", error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy")
 def _tanh(x):
     c = EXPM1_COEFFICIENTS
     a = abs(x)
