@@ -77,8 +77,8 @@ def rwg(task, workers: int, policies: int, episodes: int) -> tuple[float, float,
 
     import taskcomplexity
     from taskcomplexity.policies.families import PriorSpec, network_from_config
+    from taskcomplexity.rwg.backends import environments_in_flight
     from taskcomplexity.rwg.chunking import chunk_size
-    from taskcomplexity.rwg.gym_backend import environments_in_flight
     from taskcomplexity.rwg.run import run_rwg
     from taskcomplexity.rwg.settings import RWGSettings
 

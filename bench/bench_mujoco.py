@@ -232,7 +232,7 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
     from taskcomplexity.policies.mlp import PriorSpec
     from taskcomplexity.rwg import RWGSettings, chunks, run_rwg
     from taskcomplexity.rwg.gym_backend import slots_per_policy
-    from taskcomplexity.rwg.workers import gym_workers
+    from taskcomplexity.rwg.workers import worker_count
     from taskcomplexity.tasks.gym_task import GymTask
 
     task = GymTask(env_id, max_steps=args.max_steps or None)
@@ -259,7 +259,7 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
     ranges = chunks(task, network, settings(cores), "gym")
     first = ranges[0][1] - ranges[0][0]
     in_flight = first * slots_per_policy(first, args.episodes)
-    processes = gym_workers(settings(cores), len(ranges))
+    processes = worker_count(settings(cores), len(ranges))
     per_env = setup_seconds(task, min(in_flight, args.setup_envs))
     taken = recorded_actions(env_id, limit, network, prior, args.seed, args.policies, min(args.episodes, 4),
                              args.steps)

@@ -32,7 +32,7 @@ RUN = textwrap.dedent("""
     from taskcomplexity.rwg.settings import RWGSettings
     from taskcomplexity.tasks.gym_task import GymTask
 
-    def slow(task, network, prior, settings, start, stop):  # a chunk that takes a minute: the run is interrupted
+    def slow(task, network, prior, settings, backend, start, stop):  # a chunk of a minute: the run is interrupted
         with open(os.path.join(sys.argv[1], f"worker-{os.getpid()}"), "w"):
             pass
         time.sleep(60)
@@ -41,7 +41,7 @@ RUN = textwrap.dedent("""
 
     @one_line_errors
     def main():
-        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(),
+        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(), "gym",
                                [(0, 1), (1, 2), (2, 3)], 2, lambda key, chunk: None)
 
     main()
@@ -104,7 +104,7 @@ def test_sigint_and_sigterm_stop_the_run_and_its_workers_at_once_in_one_line(tmp
     assert _gone(workers)
 
 
-def _dies_second(task, network, prior, settings, start, stop):
+def _dies_second(task, network, prior, settings, backend, start, stop):
     """A worker's chunk: chunk 0 returns at once, chunk 1 kills its worker (as the OOM killer does)."""
     if start == 1:
         time.sleep(0.5)
@@ -122,7 +122,7 @@ def test_a_worker_that_dies_is_one_error_naming_what_is_saved(monkeypatch):
     done = {}
     with pytest.raises(WorkerLost, match=r"^an RWG worker process of CartPole-v1 died \(killed, or out of memory\) "
                        r"with 3 of 4 chunks unfinished; the 1 finished are saved: rerun the same command to resume$"):
-        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(),
+        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(), "gym",
                                [(0, 1), (1, 2), (2, 3), (3, 4)], 2, done.__setitem__)
     assert list(done) == [(0, 1)]
 

@@ -1,7 +1,8 @@
 """The generated reference pages, written at build time by mkdocs-gen-files (``mkdocs.yml``).
 
 ``gen_config_reference.pages()`` (every config group, option and key, from ``conf/``) and
-``gen_api_reference.pages()`` (one mkdocstrings page per module) each map a page's path to its text; run by
+``gen_api_reference.pages()`` (one mkdocstrings page per module) and ``gen_backends_reference.pages()`` (the
+backends' table, from their registry) each map a page's path to its text; run by
 hand (``python docs/hooks/gen_reference.py``) this prints them instead.
 """
 
@@ -13,12 +14,13 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling modules, also under runpy.run_path
 
 import gen_api_reference  # noqa: E402
+import gen_backends_reference  # noqa: E402
 import gen_config_reference  # noqa: E402
 
 
 def pages() -> dict[str, str]:
     """Every generated page: its path under docs/ → its Markdown."""
-    return {**gen_config_reference.pages(), **gen_api_reference.pages()}
+    return {**gen_config_reference.pages(), **gen_api_reference.pages(), **gen_backends_reference.pages()}
 
 
 def main() -> None:

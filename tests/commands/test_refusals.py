@@ -126,6 +126,23 @@ def test_metrics_settings_are_checked_before_the_returns_are_computed(tmp_path):
     assert artefacts(outputs) == []
 
 
+@pytest.mark.parametrize(("args", "where"), [
+    (["task=pendulum"], "task Pendulum-v1 runs on kernel"),
+    (["experiment=smoke", "sac.enabled=false"], "study seven_tasks runs on batched"),
+])
+def test_rwg_workers_where_no_backend_runs_workers_is_refused_before_any_work(tmp_path, args, where):
+    """rwg.workers sets the processes of the backends that step Python environments: on a task or a study whose
+    backends run in one process it would change nothing, so it is refused (every override reaches the computation
+    or is refused)."""
+    outputs = tmp_path / "out"
+    script = "rwg" if args[0].startswith("task=") else "study"
+    done = run(script, [*args, "rwg.workers=2", "rwg.policies=2", "rwg.episodes=2", f"paths.outputs={outputs}"],
+               tmp_path)
+    assert re.fullmatch(rf"error: rwg\.workers=2 sets the processes that step Python environments on backend [a-z ]+; "
+                        rf"{where}, in one process \(allowed: 0\)", refusal(done)), refusal(done)
+    assert artefacts(outputs) == []
+
+
 def test_a_float_beyond_exact_integers_is_no_integer_setting(tmp_path):
     done = run("rwg", ["rwg.policies=1e99", f"paths.outputs={tmp_path / 'out'}"], tmp_path)
     assert refusal(done) == ("error: rwg.policies must be an integer, got 1e+99 (1e+99 is beyond 2**53, where a "

@@ -15,8 +15,8 @@ from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.families import (
-    BACKEND_CALLS,
     FAMILIES,
+    INTERFACES,
     ActingBatch,
     FamilySpec,
     SteppedBatch,
@@ -26,6 +26,7 @@ from taskcomplexity.policies.families import (
 )
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
 from taskcomplexity.rwg import BACKENDS, RWGSettings, run_rwg
+from taskcomplexity.rwg.backends import Plan, family_backends, task_backends
 from taskcomplexity.stages.keys import stage_key
 from taskcomplexity.stages.rwg_stage import NUMERICS, STAGE, RWGRequest
 from taskcomplexity.tasks.base import decode_actions
@@ -169,12 +170,15 @@ TASKS = {"batched": ("one_link_1m0", "dense"), "pybullet": ("one_link_1m0", "den
          "kernel": "Pendulum-v1", "envpool": "Hopper-v5", "vector": "vector_pendulum:VectorPendulum-v0"}
 """A task per backend: a reaching arm for the arms' backends, a Discrete and a Box classic-control task for
 gymnasium's, a MuJoCo task for EnvPool's (skipped without the envpool and mujoco extras), a researcher's vectorised
-env (``tests/vector_pendulum.py``) for ``vector``."""
-DECLARED = [(name, backend) for name, spec in FAMILIES.items() for backend in spec.backends]
-REFUSED = [(name, backend) for name, spec in FAMILIES.items() for backend in BACKENDS if backend not in spec.backends]
+env (``tests/vector_pendulum.py``) for ``vector``; any other backend gets the first of them it simulates."""
+DECLARED = [(name, backend) for name, spec in FAMILIES.items() for backend in family_backends(spec)]
+REFUSED = [(name, backend) for name, spec in FAMILIES.items() for backend in BACKENDS
+           if backend not in family_backends(spec)]
 
 
 def _task(backend: str):
+    if backend not in TASKS:
+        return next(task for task in map(_task, TASKS) if backend in task_backends(task))
     where = TASKS[backend]
     if isinstance(where, tuple):
         return make_task(*where)
@@ -189,7 +193,7 @@ def test_a_family_is_registered_under_its_name_with_a_config_option_and_backends
     spec = FAMILIES[name]()
     assert isinstance(spec, FamilySpec) and spec.family == name
     assert network_from_config({"family": name}) == spec
-    assert spec.backends and set(spec.backends) <= set(BACKENDS), spec.backends
+    assert family_backends(spec) and set(family_backends(spec)) <= set(BACKENDS), family_backends(spec)
     options = {p.stem: yaml.safe_load(p.read_text()) or {} for p in (CONF_DIR / "network").glob("*.yaml")}
     assert any(node.get("family", "mlp") == name for node in options.values()), f"no network option has family {name}"
     assert isinstance(spec.identity(), dict) and spec.tag and spec.describe()
@@ -197,12 +201,13 @@ def test_a_family_is_registered_under_its_name_with_a_config_option_and_backends
 
 
 @pytest.mark.parametrize(("name", "backend"), DECLARED)
-def test_a_familys_batch_answers_the_calls_of_each_backend_it_lists(name, backend):
-    """The members the backend calls are there (BACKEND_CALLS), ``select`` keeps the sampling indices, and a
+def test_a_familys_batch_answers_the_calls_of_each_backend_it_runs_on(name, backend):
+    """The members the backend calls are there (INTERFACES), ``select`` keeps the sampling indices, and a
     policy is a function of (seed, n) alone: the same sampled alone or among others, to the last bit."""
     task, spec = _task(backend), FAMILIES[name]()
     batch = sample_family(task, spec, PriorSpec(), 3, np.arange(2, 6))
-    assert missing_calls(batch, backend) == [] and isinstance(batch, BACKEND_CALLS[backend])
+    calls = BACKENDS[backend].calls
+    assert missing_calls(batch, calls) == [] and isinstance(batch, INTERFACES[calls])
     assert len(batch) == 4 and list(batch.indices) == [2, 3, 4, 5]
     assert list(batch.select(1).indices) == [3] and len(batch.select(1)) == 1
     some = batch.select(np.array([1, 2]))
@@ -225,7 +230,7 @@ def test_a_familys_batch_answers_the_calls_of_each_backend_it_lists(name, backen
 
 
 @pytest.mark.parametrize(("name", "backend"), DECLARED)
-def test_a_family_runs_rwg_on_each_backend_it_lists(name, backend):
+def test_a_family_runs_rwg_on_each_backend_it_runs_on(name, backend):
     task = _task(backend)
     chunk = run_rwg(task, FAMILIES[name](), PriorSpec(), RWGSettings(policies=3, episodes=2, seed=1, chunk_policies=2),
                     backend)
@@ -234,19 +239,19 @@ def test_a_family_runs_rwg_on_each_backend_it_lists(name, backend):
 
 
 @pytest.mark.parametrize(("name", "backend"), REFUSED)
-def test_a_backend_a_family_does_not_list_is_refused_in_one_line_before_any_work(name, backend):
+def test_a_backend_a_family_does_not_run_on_is_refused_in_one_line_before_any_work(name, backend):
     task, spec = _task(backend), FAMILIES[name]()
     with pytest.raises(ConfigError, match=rf"^network.family={name} cannot run on backend={backend} for task "
-                                          rf"{task.task_id}: the family runs on {', '.join(spec.backends)}") as err:
+                                          rf"{task.task_id}: the family runs on {', '.join(family_backends(spec))}") as err:
         run_rwg(task, spec, PriorSpec(), RWGSettings(policies=2, episodes=2), backend)
     assert "\n" not in str(err.value)
 
 
 def test_a_batch_without_the_calls_of_a_backend_is_refused_by_name_not_an_attribute_error():
-    """A family whose ``backends`` lists one its batch cannot answer: the backend's missing calls are named."""
+    """A batch handed to a backend whose calls it cannot answer: the backend's missing calls are named."""
     from taskcomplexity.rwg import run_batch
 
     steps_only = sample_family(make_task("one_link_1m0", "dense"), FAMILIES["dmp"](), PriorSpec(), 0, np.arange(2))
     with pytest.raises(TypeError, match=r"^backend=kernel cannot run a PrimitiveBatch: it lacks act, unit_outputs "
                                         r"\(the backend's calls: taskcomplexity.policies.families.ActingBatch\)$"):
-        run_batch(GymTask("Pendulum-v1"), steps_only, "kernel", seed=0, episodes=2)
+        run_batch(GymTask("Pendulum-v1"), steps_only, "kernel", Plan(seed=0, episodes=2))

@@ -74,7 +74,7 @@ def test_the_new_family_runs_rwg_on_the_kernel_and_gym_backends_as_printed(recip
 
 def test_the_policy_tests_pass_with_the_new_family_registered(recipe):
     """tests/policies/test_policies.py goes over every registered family: the new one answers the calls of each backend it
-    lists, is the same policy sampled alone or among others, and runs RWG on each of those backends. The RWG
+    runs on, is the same policy sampled alone or among others, and runs RWG on each of those backends. The RWG
     stage's declaration covers its module (tests/stages/test_numerics.py), and the copy stays lint-clean."""
     done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p", "no:cacheprovider", "-p", "no:xdist",
                            "tests/policies/test_policies.py",
@@ -84,8 +84,8 @@ def test_the_policy_tests_pass_with_the_new_family_registered(recipe):
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     passed = set(re.findall(r"^PASSED tests/policies/test_policies.py::(\w+)\[constant-(\w+)\]", done.stdout, re.M))
     for backend in ("batched", "pybullet", "gym", "kernel"):
-        assert {("test_a_familys_batch_answers_the_calls_of_each_backend_it_lists", backend),
-                ("test_a_family_runs_rwg_on_each_backend_it_lists", backend)} <= passed, done.stdout[-3000:]
+        assert {("test_a_familys_batch_answers_the_calls_of_each_backend_it_runs_on", backend),
+                ("test_a_family_runs_rwg_on_each_backend_it_runs_on", backend)} <= passed, done.stdout[-3000:]
     pytest.importorskip("ruff")
     lint = subprocess.run([sys.executable, "-m", "ruff", "check", "src"], cwd=recipe, capture_output=True, text=True,
                           timeout=120)

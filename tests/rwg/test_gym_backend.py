@@ -73,7 +73,7 @@ def test_rwg_workers_is_refused_below_zero():
         RWGSettings(workers=-1).validate()
 
 
-def slow_first_failing_second(task, network, prior, settings, start, stop):
+def slow_first_failing_second(task, network, prior, settings, backend, start, stop):
     """A worker's chunk (in place of rwg.workers._chunk): chunk 0 takes a second, chunk 1 fails at once."""
     import time
 
@@ -91,7 +91,7 @@ def test_a_failing_chunk_lets_the_running_ones_finish_and_keeps_them(monkeypatch
     monkeypatch.setattr(workers, "_chunk", slow_first_failing_second)  # the forked workers inherit it
     done = {}
     with pytest.raises(ValueError, match="boom"):
-        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(),
+        workers.run_on_workers(GymTask("CartPole-v1"), NetworkSpec(), PriorSpec(), RWGSettings(), "gym",
                                [(0, 1), (1, 2), (2, 3), (3, 4)], 2, done.__setitem__)
     assert (0, 1) in done and (1, 2) not in done  # chunk 0 was running when chunk 1 failed: it is kept
 

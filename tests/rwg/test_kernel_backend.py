@@ -16,6 +16,7 @@ from scipy import stats
 
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
+from taskcomplexity.rwg.backends import task_backends
 from taskcomplexity.tasks.classic import KERNELS
 from taskcomplexity.tasks.gym_task import GymTask
 
@@ -26,8 +27,8 @@ REWARD_RTOL = 1e-12
 
 
 def test_ids_and_arguments_without_a_kernel_keep_the_gym_backend():
-    assert GymTask("CartPole-v1", kwargs={"render_mode": "rgb_array"}).backends == ("gym",)
-    assert GymTask("LunarLander-v3").backends == ("gym",) if "LunarLander-v3" in gymnasium.registry else True
+    assert task_backends(GymTask("CartPole-v1", kwargs={"render_mode": "rgb_array"})) == ("gym",)
+    assert task_backends(GymTask("LunarLander-v3")) == ("gym",) if "LunarLander-v3" in gymnasium.registry else True
     assert resolve_backend(GymTask("Acrobot-v1"), "auto") == "kernel"
 
 

@@ -13,6 +13,7 @@ import pytest
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, run_rwg
+from taskcomplexity.rwg.backends import task_backends
 from taskcomplexity.tasks.gym_task import GymTask
 
 VECTOR = "vector_pendulum:VectorPendulum-v0"
@@ -21,8 +22,8 @@ RTOL = 1e-12
 
 
 def test_a_vector_env_that_seeds_each_environment_runs_on_it_by_default():
-    assert GymTask(VECTOR).backends == ("vector", "gym")
-    assert GymTask(ONE_SEED).backends == ("gym",)  # one generator for every environment: its returns would depend on
+    assert task_backends(GymTask(VECTOR)) == ("vector", "gym")
+    assert task_backends(GymTask(ONE_SEED)) == ("gym",)  # one generator for every environment: its returns would depend on
     # which slot an episode ran in
     with pytest.raises(ConfigError, match=r"^backend=vector is not available for task VectorPendulumOneSeed-v0 "
                                           r"\(allowed: auto, gym\)$"):
@@ -60,7 +61,7 @@ def test_a_vector_env_with_unseeded_noise_late_in_its_episodes_is_refused_before
     check_vector_env(GymTask(VECTOR), 0)  # a vector env its seeds fix passes
     seed = int(episode_reset_seeds(0, np.array([0]), np.array([0]))[0])
     noisy = GymTask("vector_pendulum:VectorPendulumNoisy-v0")
-    assert noisy.backends[0] == "vector"
+    assert task_backends(noisy)[0] == "vector"
     request = RWGRequest(noisy, NetworkSpec(), PriorSpec(), RWGSettings(policies=4, episodes=2), backend="vector")
     with pytest.raises(EnvContractError, match=rf"is not reproducible on backend=vector: two replays of the episode "
                        rf"reset with seed {seed}, with the same actions, gave a different observation at step 31 "):

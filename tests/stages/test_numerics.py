@@ -2,7 +2,9 @@
 
 A stage's reach is the ``taskcomplexity`` modules its module imports at any depth (imports inside functions
 too), not walking into the other stage modules: those stages' numbers reach it through their keys, held in
-its own. Every module of the reach is declared by the stage, declared by a stage it reads by key, or listed
+its own. The backends' registry (``rwg.backends``) names its backends' modules as entry points, imported when a run
+opens one: a stage that declares the one call every backend answers (``rwg.batch``: the RWG stage and those that run
+its episodes) reaches them too; another (SAC, which reads the registry for ``sac.backend``) its declarations only. Every module of the reach is declared by the stage, declared by a stage it reads by key, or listed
 below as glue that computes no number. A module that enters a stage's reach must be placed: in the stage's
 declaration (its numbers need a version bump when they change) or in ``GLUE``.
 """
@@ -10,6 +12,7 @@ declaration (its numbers need a version bump when they change) or in ``GLUE``.
 from __future__ import annotations
 
 import ast
+import dataclasses
 import importlib
 import importlib.util
 from pathlib import Path
@@ -73,10 +76,24 @@ def _is_module(name: str) -> bool:
         return False
 
 
+REGISTRY = f"{PACKAGE}.rwg.backends"
+
+
+def _entry_modules() -> list[str]:
+    """The modules the backends' registry names as entry points of RWG's episodes ("module:object"; SAC's vector envs
+    are SAC's, declared by it)."""
+    from taskcomplexity.rwg.backends import BACKENDS
+
+    entries = [getattr(b, f.name) for b in BACKENDS.values() for f in dataclasses.fields(b)
+               if not f.name.startswith("sac_")]
+    return [e.partition(":")[0] for e in entries if isinstance(e, str) and ":" in e]
+
+
 def reach(stage: str) -> set[str]:
     """The package modules (without the package prefix) that ``stage``'s module imports, at any depth,
     not walking into the other stage modules."""
     start = f"{PACKAGE}.stages.{stage}_stage"
+    runs_backends = "rwg.batch" in _numerics(stage).modules
     seen, todo = set(), [start]
     while todo:
         name = todo.pop()
@@ -85,6 +102,10 @@ def reach(stage: str) -> set[str]:
         seen.add(name)
         if name.endswith("_stage") and name != start:
             continue
+        if name == REGISTRY:
+            if not runs_backends:
+                continue
+            todo.extend(_entry_modules())
         path = _source(name)
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             for imported in _imports(node, name, path):
@@ -120,7 +141,11 @@ def test_the_walk_sees_imports_inside_functions_and_stops_at_other_stages():
     # the physics kernel is imported by a function of the RWG runner, three imports away
     assert {"tasks.dynamics", "tasks.step_kernel", "policies.mlp", "seeding", "rwg.gym_backend"} <= rwg
     assert not any(m.startswith(("report", "rl")) for m in rwg)
-    assert "rl.train" in reach("sac") and "tasks.batched" in reach("sac")  # sac.backend=batched steps the kernel
+    assert "rl.train" in reach("sac") and "rwg.backends" in reach("sac") and "rwg.gym_backend" not in reach("sac")
+    from taskcomplexity.rwg.backends import BACKENDS  # sac.backend=batched: the kernel's vector env, declared by SAC
+
+    assert {b.sac_env.partition(":")[0].removeprefix(f"{PACKAGE}.") for b in BACKENDS.values() if b.sac_env} \
+        <= set(_numerics("sac").modules)
     assert not any(m.startswith(("report", "metrics")) for m in reach("sac"))
     metrics = reach("metrics")  # it reads the returns through the RWG stage's module, not the physics
     assert "metrics.pic" in metrics and "tasks.dynamics" not in metrics

@@ -14,6 +14,7 @@ from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.families import network_from_config
 from taskcomplexity.policies.mlp import PriorSpec
+from taskcomplexity.rwg.backends import task_backends
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.rewards import REWARD_KINDS, reward_kind
 from taskcomplexity.tasks.spec import REWARDS, ArmSpec, RewardSpec, arm_presets, make_task
@@ -135,7 +136,7 @@ def test_every_shipped_study_composes_into_requests_for_each_of_its_tasks(compos
         return
     assert [entry.id for entry, _ in pairs] == list(loaded.ids)
     for entry, request in pairs:
-        assert request.backend == request.task.backends[0]  # backend=auto: the task's fastest
+        assert request.backend == task_backends(request.task)[0]  # backend=auto: the task's fastest
         for group, read in (("prior", lambda node: build(PriorSpec, node, "prior")), ("network", network_from_config)):
             chosen = entry.selection.get(group, getattr(loaded, group) or {"prior": "normal", "network": "mlp32"}[group])
             expected = read(yaml.safe_load((CONF_DIR / group / f"{chosen}.yaml").read_text()))

@@ -14,6 +14,7 @@ from gymnasium import spaces
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
+from taskcomplexity.rwg.backends import task_backends
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
 from taskcomplexity.tasks.gym_task import GymTask
 from taskcomplexity.tasks.spec import make_task
@@ -32,7 +33,7 @@ def test_a_gym_task_reads_its_spaces_and_time_limit_from_the_registered_env(env_
     task = GymTask(env_id).validate()
     assert isinstance(task, Task)
     assert (task.observation_size, task.action_size, task.max_steps) == CLASSIC[env_id]
-    assert task.task_id == env_id and task.backends == ("kernel", "gym")  # numba kernels first (tasks/classic/)
+    assert task.task_id == env_id and task_backends(task) == ("kernel", "gym")  # numba kernels first (tasks/classic/)
     assert GymTask(env_id, max_steps=CLASSIC[env_id][2]).identity() == task.identity()  # null = the env's own
     assert GymTask(env_id, max_steps=7).identity() != task.identity()
 
@@ -40,7 +41,7 @@ def test_a_gym_task_reads_its_spaces_and_time_limit_from_the_registered_env(env_
 def test_the_reaching_arms_implement_the_same_seam():
     task = make_task("two_link", "sparse")
     assert isinstance(task, Task)
-    assert task.env_id == "taskcomplexity/TwoLink-Sparse-v0" and task.backends[0] == "batched"
+    assert task.env_id == "taskcomplexity/TwoLink-Sparse-v0" and task_backends(task)[0] == "batched"
     assert (task.observation_space.shape, task.action_space.shape) == ((10,), (2,))
     env = task.make_env()
     try:

@@ -20,6 +20,7 @@ from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
 from taskcomplexity.rwg import RWGSettings, resolve_backend, run_rwg
+from taskcomplexity.rwg.backends import task_backends
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.base import decode_actions
@@ -194,7 +195,7 @@ def test_the_preset_the_kernel_and_the_env_share_their_defaults():
     assert dict(KERNELS[NOISY_CARTPOLE_ID].arguments) == {k: signature[k] for k in KERNELS[NOISY_CARTPOLE_ID].arguments}
     spec = gymnasium.spec(NOISY_CARTPOLE_ID)
     assert (spec.max_episode_steps, spec.reward_threshold) == (200, gymnasium.spec("CartPole-v0").reward_threshold)
-    assert GymTask(NOISY_CARTPOLE_ID, kwargs={"render_mode": "rgb_array"}).backends == ("gym",)
+    assert task_backends(GymTask(NOISY_CARTPOLE_ID, kwargs={"render_mode": "rgb_array"})) == ("gym",)
 
 
 def test_the_study_relates_adjacent_noise_levels_along_each_axis():

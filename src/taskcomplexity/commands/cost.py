@@ -5,10 +5,11 @@
     make atlas-cost ARGS='study.policies=1000 study.episodes=1000 rwg.shards=100'
 
 Per task of the composed study (the same overrides as the run it prices), on the backend the run would take, two
-pilots of its first policies, each in one chunk (:func:`pilot_sizes`): on the ``gym`` backend ``PILOT_POLICIES``
-policies (fewer for episodes longer than 200 steps), on ``envpool`` a chunk's (one environment each), run
-``PILOT_EPISODES[0]`` and then ``PILOT_EPISODES[1]`` episodes; on the ``kernel`` and ``batched`` backends, which
-step a chunk's P × M episodes as one batch, 2 and then 6 policies run the run's M. A chunk's CPU time is a fixed
+pilots of its first policies, each in one chunk (:func:`pilot_sizes`): on a backend whose chunks hold a fixed number
+of policies (``envpool``: one environment each) a chunk's, on the others (``gym``, ``vector``) ``PILOT_POLICIES``
+policies (fewer for episodes longer than 200 steps), run ``PILOT_EPISODES[0]`` and then ``PILOT_EPISODES[1]``
+episodes; on a backend that steps a chunk's P × M episodes as one batch (``kernel``, ``batched``), 2 and then 6
+policies run the run's M. A chunk's CPU time is a fixed
 part (making its environments, sampling its policies) plus a part per episode, so the two pilots give both: CPU-s
 per episode = the difference of their CPU over the difference of their episodes, and the fixed part = the first
 pilot's CPU less its episodes' share. The estimate is then N × M × CPU-s per episode + the run's chunks × the fixed
@@ -50,9 +51,6 @@ PILOT_STEPS = 3200
 slow episodes (Meta-World's 500 steps at 0.3-0.8 ms a step) are priced on fewer policies, so that pricing 50 such
 tasks takes minutes, not the better part of an hour; tasks of up to 200 steps keep ``PILOT_POLICIES``."""
 MIN_PILOT_POLICIES = 4
-BATCHED = ("kernel", "batched")
-"""Backends that step every episode of a chunk at once (numba kernels): a chunk costs what its batch (P × M episodes)
-costs, so their pilots run the run's M."""
 PILOT_EPISODES = (2, 6)
 """Episodes per policy of the two pilots: the difference prices an episode, the first the chunk's fixed part."""
 
@@ -117,17 +115,18 @@ def job_start_cpu(entry_id: str, typed: list[str]) -> float:
 
 
 def pilot_sizes(request) -> tuple[tuple[int, int], tuple[int, int]]:
-    """(policies, episodes) of the two pilots of ``request``: on the batched backends, 2 and up to 6 policies at the
-    run's M (a chunk's cost is its batch's: P × M episodes stepped together); on ``envpool`` a chunk's policies, on
-    the gym backend ``PILOT_POLICIES`` (fewer for episodes longer than 200 steps: :data:`PILOT_STEPS`), at
-    ``PILOT_EPISODES``."""
-    from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
+    """(policies, episodes) of the two pilots of ``request``: on a backend that steps a chunk's P × M episodes at
+    once, 2 and up to 6 policies at the run's M (a chunk's cost is its batch's); on one whose chunks hold a fixed
+    number of policies, a chunk's, else ``PILOT_POLICIES`` (fewer for episodes longer than 200 steps:
+    :data:`PILOT_STEPS`), at ``PILOT_EPISODES``."""
+    from taskcomplexity.rwg.backends import BACKENDS
 
     settings = request.settings
-    if request.backend in BATCHED:
+    backend = BACKENDS[request.backend]
+    if backend.steps_at_once:
         return (2, settings.episodes), (min(PILOT_EPISODES[1], settings.policies), settings.episodes)
-    if request.backend == "envpool":
-        policies = min(settings.policies, POLICIES_PER_POOL)
+    if backend.chunk_policies is not None:
+        policies = min(settings.policies, backend.chunk_policies)
     else:
         steps = max(1, int(request.task.max_steps or 1))
         policies = min(settings.policies, PILOT_POLICIES, max(MIN_PILOT_POLICIES, PILOT_STEPS // steps))
@@ -181,7 +180,8 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
 
     refuse_entry(cfg)
     entries = study_requests(cfg)
-    from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
+    from taskcomplexity.rwg.backends import BACKENDS
+
     cores = usable_cores()
     costs = []
     for entry, request in entries:
@@ -190,10 +190,14 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
         log.info("priced %s on %s in %.1f s", entry.id, request.backend, time.perf_counter() - started)
     shards = int(cfg.rwg.shards)
     n, m = entries[0][1].settings.policies, entries[0][1].settings.episodes
+    used = [BACKENDS[b] for b in dict.fromkeys(request.backend for _, request in entries)]
+    fixed = "".join(f" (on {b.name} {b.chunk_policies})" for b in used if b.chunk_policies and not b.steps_at_once)
+    at_once = [b.name for b in used if b.steps_at_once]
     echo(f"RWG cost of study {cfg.study.name} at N = {n:,} × M = {m:,}, from two pilots per task on this machine "
-         f"({cores} usable cores): {PILOT_POLICIES} policies (on envpool {POLICIES_PER_POOL}) × {PILOT_EPISODES[0]} "
-         f"and × {PILOT_EPISODES[1]} episodes, or on the {' and '.join(BATCHED)} backends 2 and {PILOT_EPISODES[1]} "
-         "policies × M:")
+         f"({cores} usable cores): {PILOT_POLICIES} policies{fixed} × {PILOT_EPISODES[0]} "
+         f"and × {PILOT_EPISODES[1]} episodes"
+         + (f", or on the {' and '.join(at_once)} backend{'s' * (len(at_once) > 1)} 2 and {PILOT_EPISODES[1]} "
+            "policies × M" if at_once else "") + ":")
     head = (f"{'task':<26}{'backend':>9}{'steps/episode':>15}{'T':>6}{'CPU-ms/episode':>16}{'CPU-s/chunk':>13}"
             f"{'chunks':>8}{'CPU':>12}")
     echo(head)

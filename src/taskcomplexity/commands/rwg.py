@@ -20,6 +20,7 @@ from omegaconf import DictConfig
 from taskcomplexity.cli import one_line_errors, refuse_unread_groups, user_overrides
 from taskcomplexity.commands import entry_point
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.rwg.backends import refuse_workers
 from taskcomplexity.stages.declared import STAGES
 from taskcomplexity.stages.rwg_stage import STAGE, RWGRequest, run_rwg_stage
 from taskcomplexity.study.plan import cache_from_config, rwg_request_from_config, study_from, study_requests
@@ -49,6 +50,8 @@ def run(cfg: DictConfig):
     unread = UNREAD if entry is not None else (*UNREAD, "study")
     refuse_unread_groups(user_overrides(), unread, "the RWG stage of one task", "pipelines/study.py")
     request = entry_request(cfg, str(entry)) if entry is not None else rwg_request_from_config(cfg)
+    if entry is None:  # one task alone: rwg.workers must reach its backend (a study's job takes the study's value)
+        refuse_workers(request.settings.workers, [request.backend], f"task {request.task.task_id}")
     cache = cache_from_config(cfg)
     artefact, hit = run_rwg_stage(
         cache, request, force=bool(cfg.force), progress=True, compute_missing=request.settings.shards == 1

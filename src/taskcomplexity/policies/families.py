@@ -2,10 +2,12 @@
 
 A family is two classes. Its **spec** (:class:`FamilySpec`) is the frozen dataclass that a ``network``
 config node builds (``conf/network/<option>.yaml``; its ``family`` key names the family); it keys the returns,
-labels the runs, sizes the chunks, names the backends it runs on and samples a **batch** of policies. The batch
-answers the calls of those backends: every backend calls :class:`FamilyBatch`'s members; the ``batched`` and
-``pybullet`` backends step it with :class:`SteppedBatch`'s ``begin``/``respond``, the ``gym``, ``kernel``,
-``envpool`` and ``vector`` backends with :class:`ActingBatch`'s ``act``/``unit_outputs`` (:data:`BACKEND_CALLS`).
+labels the runs, sizes the chunks and samples a **batch** of policies. The batch answers the calls of the backends
+it runs on: every backend calls :class:`FamilyBatch`'s members; a backend that steps a batch (the reaching arms'
+``batched`` and ``pybullet``) calls :class:`SteppedBatch`'s ``begin``/``respond``, one that acts through it
+(gymnasium's ``gym``, ``kernel``, ``envpool`` and ``vector``) :class:`ActingBatch`'s ``act``/``unit_outputs``
+(:data:`INTERFACES`). So the backends a family runs on follow from the class its ``sample`` returns
+(:func:`taskcomplexity.rwg.backends.family_backends`).
 
 - ``mlp`` (the default; a config without ``family`` is one): the paper's random MLPs,
   :class:`~taskcomplexity.policies.mlp.NetworkSpec` → :class:`~taskcomplexity.policies.mlp.PolicyBatch`,
@@ -16,7 +18,7 @@ answers the calls of those backends: every backend calls :class:`FamilyBatch`'s 
   ``pybullet`` backends.
 
 :data:`FAMILIES` maps ``network.family`` to its spec class; :func:`sample_family` samples through the spec.
-A backend that a family does not list is refused before any work
+A backend whose calls a family's batch does not answer is refused before any work
 (:func:`taskcomplexity.rwg.backends.resolve_backend`). ``docs/how-to/add-a-policy-family.md`` adds one.
 
 Shapes: P policies of a batch, E environments per policy (episodes run together), ``obs`` the task's
@@ -25,7 +27,7 @@ observation size, ``act`` its action size (:class:`~taskcomplexity.tasks.base.Ta
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol, Self, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, Self, runtime_checkable
 
 import numpy as np
 
@@ -87,7 +89,7 @@ class FamilyBatch(Protocol):
 
 @runtime_checkable
 class SteppedBatch(FamilyBatch, Protocol):
-    """A batch the ``batched`` and ``pybullet`` backends step: the reaching arms' backends.
+    """A batch that a backend steps (``calls="stepped"``: the reaching arms' ``batched`` and ``pybullet``).
 
     Both take actions in the arms' units, one per joint in [−1, 1] (× the arm's torque scale, N·m).
     """
@@ -128,7 +130,8 @@ class SteppedBatch(FamilyBatch, Protocol):
 
 @runtime_checkable
 class ActingBatch(FamilyBatch, Protocol):
-    """A batch gymnasium's backends (``gym``, ``kernel``, ``envpool``, ``vector``) run: Box or Discrete actions."""
+    """A batch that a backend acts through (``calls="acting"``: gymnasium's ``gym``, ``kernel``, ``envpool``,
+    ``vector``): Box or Discrete actions."""
 
     def act(self, observations: torch.Tensor) -> torch.Tensor:
         """Deterministic outputs, one row per (policy, environment).
@@ -164,19 +167,20 @@ class ActingBatch(FamilyBatch, Protocol):
         ...
 
 
-BACKEND_CALLS: dict[str, type[FamilyBatch]] = {
-    "batched": SteppedBatch, "pybullet": SteppedBatch, "gym": ActingBatch, "kernel": ActingBatch,
-    "envpool": ActingBatch, "vector": ActingBatch,
-}
-"""RWG backend → the interface it calls on a batch: a family that lists a backend implements its interface."""
+INTERFACES: dict[str, type[FamilyBatch]] = {"stepped": SteppedBatch, "acting": ActingBatch}
+"""What a backend calls on a batch (its ``calls``, :class:`taskcomplexity.rwg.backends.Backend`) → the interface: a
+family runs on the backends whose interface its batch implements."""
 
 
-def missing_calls(batch: object, backend: str) -> list[str]:
-    """The members of ``backend``'s interface (:data:`BACKEND_CALLS`) that ``batch`` lacks: empty if it can run."""
-    interface = BACKEND_CALLS[backend]
-    called = (*FamilyBatch.__annotations__, "__len__", "__enter__", "__exit__",
-              *(name for name in dir(interface) if not name.startswith("_")))
-    return [name for name in called if not hasattr(batch, name)]
+def missing_calls(batch: object, calls: str) -> list[str]:
+    """The members of the interface ``calls`` (:data:`INTERFACES`) that ``batch`` (a batch or its class) lacks:
+    empty if it runs on the backends that make those calls."""
+    interface = INTERFACES[calls]
+    members = (*FamilyBatch.__annotations__, "__len__", "__enter__", "__exit__",
+               *(name for name in dir(interface) if not name.startswith("_")))
+    cls = batch if isinstance(batch, type) else type(batch)
+    fields = {name for klass in cls.__mro__ for name in getattr(klass, "__annotations__", {})}
+    return [name for name in members if not (hasattr(batch, name) or name in fields)]
 
 
 @runtime_checkable
@@ -190,13 +194,9 @@ class FamilySpec(Protocol):
     ----------
     family : str
         Its name in :data:`FAMILIES` (``network.family``), the field's default.
-    backends : tuple of str
-        The RWG backends that can run its batches (a class variable), each one's interface implemented by
-        the batch (:data:`BACKEND_CALLS`). A backend outside it is refused before any work.
     """
 
     family: str
-    backends: ClassVar[tuple[str, ...]]
 
     def validate(self) -> None:
         """Raise :class:`~taskcomplexity.errors.ConfigError` naming ``network.<field>``, the value and what is
@@ -237,8 +237,9 @@ class FamilySpec(Protocol):
         Returns
         -------
         FamilyBatch
-            P policies, ``indices`` as given; a :class:`SteppedBatch`, an :class:`ActingBatch` or both, as
-            its ``backends`` need.
+            P policies, ``indices`` as given; a :class:`SteppedBatch`, an :class:`ActingBatch` or both. The method's
+            return annotation names the batch's class: the backends the family runs on are those whose calls that
+            class answers.
         """
         ...
 

@@ -65,9 +65,6 @@ class NetworkSpec:
         decode tanh(output), i.e. high·tanh(output) for symmetric bounds (as in the original family).
     family : str
         ``mlp`` (:mod:`taskcomplexity.policies.families` declares the others).
-    backends : tuple of str
-        Every RWG backend: a :class:`PolicyBatch` steps on the reaching arms' (``begin``/``respond``) and acts
-        on gymnasium's (``act``/``unit_outputs``), and the ``batched`` backend's fused rollout runs it whole.
     """
 
     hidden: tuple[int, ...] = (32, 32)
@@ -78,7 +75,6 @@ class NetworkSpec:
     family: str = "mlp"
 
     ADDED: ClassVar[dict] = {"activation": "relu", "input_bias": False, "output": "tanh", "family": "mlp"}
-    backends: ClassVar[tuple[str, ...]] = ("batched", "pybullet", "gym", "kernel", "envpool", "vector")
 
     def validate(self) -> None:
         if self.family != "mlp":

@@ -69,9 +69,6 @@ class PrimitiveSpec:
         Tracking gain: the fraction of the needed velocity change asked of each action.
     substeps : int
         Euler sub-steps of the DMP integration per environment step.
-    backends : tuple of str
-        The reaching arms' ``batched`` and ``pybullet`` backends: a :class:`PrimitiveBatch` steps
-        (``begin``/``respond``) and has no ``act`` for gymnasium's.
     """
 
     family: str = FAMILY
@@ -83,7 +80,6 @@ class PrimitiveSpec:
     substeps: int = 10
 
     ADDED: ClassVar[dict] = {}
-    backends: ClassVar[tuple[str, ...]] = ("batched", "pybullet")
 
     def validate(self) -> None:
         if self.family != FAMILY:

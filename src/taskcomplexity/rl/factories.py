@@ -17,6 +17,7 @@ environment tensordicts are ``(S,)``, minibatches ``(S, batch_size)``.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import gymnasium
 import numpy as np
@@ -37,6 +38,9 @@ from taskcomplexity.seeding import derive_seed
 from taskcomplexity.tasks.base import Task, encode_observations
 from taskcomplexity.tasks.goal_env import GoalReachingEnv, join_observation
 from taskcomplexity.tasks.spec import TaskSpec
+
+if TYPE_CHECKING:
+    from taskcomplexity.rwg.backends import Backend
 
 POLICY_INPUT_KEY = "policy_input"
 ACTION_SCALE_LOWER_BOUND = 1e-4  # smallest standard deviation of the Gaussian before tanh
@@ -98,16 +102,17 @@ def success_info_key(task: Task) -> str | None:
 
 
 def make_env(
-    task: Task, num_envs: int, *, goal_conditioned: bool, success_key: str | None = None, backend: str = "pybullet"
+    task: Task, num_envs: int, *, goal_conditioned: bool, success_key: str | None = None, backend: Backend | None = None
 ) -> TransformedEnv:
     """``num_envs`` independent instances of ``task`` stepped together, as one TorchRL environment.
 
     A gymnasium vector env with auto-reset disabled (TorchRL resets finished instances itself) wrapped by
     :class:`~torchrl.envs.GymWrapper`, with ``DoubleToFloat`` (float32 observations) and ``RewardSum``
     (``episode_reward``: the return so far). Batch size ``(num_envs,)``. The vector is a ``SyncVectorEnv`` of
-    :func:`one_env`, or with ``backend="batched"`` (:func:`taskcomplexity.rl.settings.env_backend`) a
+    :func:`one_env`, or, with a ``backend`` (:func:`taskcomplexity.rl.settings.env_backend`), its
+    :attr:`~taskcomplexity.rwg.backends.Backend.sac_env` (``batched``:
     :class:`~taskcomplexity.tasks.batched_vector.BatchedReachingVector`: the same draws, steps and episode ends,
-    computed by one kernel call. With ``success_key``, the env's ``info[success_key]`` is read into the
+    computed by one kernel call). With ``success_key``, the env's ``info[success_key]`` is read into the
     tensordicts under that key.
 
     Seed it through its reset: ``env.reset(seed=[...])`` (one seed per instance).
@@ -116,10 +121,10 @@ def make_env(
     def one() -> gymnasium.Env:
         return one_env(task, goal_conditioned=goal_conditioned)
 
-    if backend == "batched":
-        from taskcomplexity.tasks.batched_vector import BatchedReachingVector
+    if backend is not None:
+        from pkgutil import resolve_name
 
-        vector = BatchedReachingVector(task, num_envs, goal_conditioned=goal_conditioned)
+        vector = resolve_name(backend.sac_env)(task, num_envs, goal_conditioned=goal_conditioned)
     else:
         vector = gymnasium.vector.SyncVectorEnv(
             [one] * num_envs, autoreset_mode=gymnasium.vector.AutoresetMode.DISABLED

@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 
 from taskcomplexity.config import setting
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.rwg.backends import sac_backends, sac_env
 from taskcomplexity.tasks.reward_kinds import reward_kind
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -14,8 +15,8 @@ HER_STRATEGIES = ("future", "final", "episode", "random")
 DEVICES = ("auto", "cpu", "cuda")
 """Values of ``sac.device``: ``auto`` is CUDA where torch sees a CUDA device, else the CPU."""
 LOSS_FUNCTIONS = ("l2", "l1", "smooth_l1")
-BACKENDS = ("pybullet", "batched")
-"""Values of ``sac.backend``: what steps a contact-free reaching arm's environments (see :func:`env_backend`)."""
+OWN_ENV = "pybullet"
+"""``sac.backend``'s default: every task steps its own env (a reaching arm's is the PyBullet reference)."""
 
 
 @dataclass(frozen=True)
@@ -161,8 +162,8 @@ class SACSettings:
             raise ConfigError(f"{where}.device must be one of {list(DEVICES)}, got {self.device!r}")
         if self.device == "cuda":
             resolve_device(self.device, where)  # refused here, before any work, where torch sees no CUDA device
-        if self.backend not in BACKENDS:
-            raise ConfigError(f"{where}.backend must be one of {list(BACKENDS)}, got {self.backend!r}")
+        if self.backend not in (OWN_ENV, *sac_backends()):
+            raise ConfigError(f"{where}.backend must be one of {[OWN_ENV, *sac_backends()]}, got {self.backend!r}")
         if self.entry is not None and (not isinstance(self.entry, str) or not self.entry):
             raise ConfigError(f"{where}.entry must be a study task's id or null, got {self.entry!r}")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds) or min(self.seeds) < 0:
@@ -212,21 +213,18 @@ def device_identity(settings: SACSettings) -> dict:
     return {} if device.type == "cpu" else {"device": device.type}
 
 
-def env_backend(task, settings: SACSettings) -> str:
-    """What steps ``task``'s environments in a SAC run: ``"batched"`` where ``settings.backend`` asks for it and
-    the task is a contact-free reaching arm, else ``"pybullet"`` for a reaching arm and ``"gymnasium"`` for any
-    other task (its own env)."""
-    if not isinstance(task, TaskSpec):
-        return "gymnasium"
-    if settings.backend == "batched" and task.arm.obstacle is None:
-        return "batched"
-    return "pybullet"
+def env_backend(task, settings: SACSettings):
+    """The RWG backend (:data:`taskcomplexity.rwg.backends.BACKENDS`) whose vector env steps ``task``'s environments
+    in a SAC run under ``settings.backend`` (``batched``: the contact-free reaching arms), or None where the task
+    steps its own env (a reaching arm's PyBullet reference, any other task's gymnasium env)."""
+    return sac_env(task, settings.backend)
 
 
 def backend_identity(task, settings: SACSettings) -> dict:
-    """What the environment backend adds to a run's identity: ``{"backend": "batched"}`` where the kernel steps
-    the environments, nothing on PyBullet (every PyBullet curve keeps its key) or a task's own env."""
-    return {"backend": "batched"} if env_backend(task, settings) == "batched" else {}
+    """What the environment backend adds to a run's identity: ``{"backend": <name>}`` where a backend's vector env
+    steps the environments, nothing where the task steps its own (every such curve keeps its key)."""
+    backend = env_backend(task, settings)
+    return {} if backend is None else {"backend": backend.name}
 
 
 def _check(where: str, name: str, value, allowed: str, ok) -> None:

@@ -76,6 +76,7 @@ from taskcomplexity.rl.factories import (
 )
 from taskcomplexity.rl.objective import SACObjective
 from taskcomplexity.rl.settings import (
+    OWN_ENV,
     SACSettings,
     backend_identity,
     device_identity,
@@ -261,8 +262,8 @@ class _Run:
             env = eval_env = collector = None
             try:
                 backend = env_backend(self.task, s)
-                if s.backend == "batched" and backend != "batched":
-                    log.info("sac.backend=%s: %s keeps %s environments", s.backend, self.task.task_id, backend)
+                if s.backend != OWN_ENV and backend is None:
+                    log.info("sac.backend=%s: %s keeps its own environments", s.backend, self.task.task_id)
                 env = make_env(self.task, num_seeds, goal_conditioned=self.goal_conditioned, backend=backend)
                 eval_env = make_env(
                     self.task,

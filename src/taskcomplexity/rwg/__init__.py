@@ -2,20 +2,23 @@
 
 S[n, e] is the undiscounted return of policy θₙ in episode e. Policy n's weights and episode e's
 initial state come from streams keyed by (seed, n) and (seed, n, e) (:mod:`taskcomplexity.seeding`),
-so S is a pure function of (task, network, prior, N, M, seed): the same for any chunking, sharding
-or backend (up to the backends' documented tolerance).
+so S is a pure function of (task, network, prior, N, M, seed, backend): the same for any chunking or sharding,
+and the same on every backend whose returns are exact (:attr:`Backend.exact`, up to its tests' stated tolerance);
+EnvPool's are another sample of the same distribution, under a key of their own.
 
 The package re-exports the names of its modules:
 
 - :mod:`.settings`: :class:`RWGSettings`, the ``rwg.*`` settings;
-- :mod:`.backends`: the backends and :func:`resolve_backend`, the choice of one for a task and a policy family;
+- :mod:`.backends`: the backends' interface (:class:`Runner`, :class:`Plan`), their registry (:data:`BACKENDS`
+  of :class:`Backend` declarations) and :func:`resolve_backend`, the choice of one for a task and a policy family;
 - :mod:`.chunking`: :class:`ReturnChunk` and the split of a shard into chunks;
 - :mod:`.run`: :func:`run_rwg` over a shard; :mod:`.batch`: :func:`simulate_chunk` for a chunk, :func:`run_batch`
-  for a batch (the one dispatch over the backends);
-- the backends: :mod:`.batched_backend` and :mod:`.pybullet_backend` (the reaching arms, from the reset states
-  of :mod:`.arm_resets`), :mod:`.gym_backend` (any gymnasium task), :mod:`.kernel_backend` (classic control),
-  :mod:`.envpool_backend` (MuJoCo and DM Control on EnvPool), :mod:`.vector_backend` (a researcher's vector env);
-- :mod:`.workers`: the gym backend's chunks on a pool of processes (``rwg.workers``);
+  for a batch (the one call every backend answers);
+- the backends' runners: :mod:`.batched_backend` and :mod:`.pybullet_backend` (the reaching arms, from the reset
+  states of :mod:`.arm_resets`), :mod:`.gym_backend` (any gymnasium task), :mod:`.kernel_backend` (classic
+  control), :mod:`.envpool_backend` (MuJoCo and DM Control on EnvPool), :mod:`.vector_backend` (a researcher's
+  vector env);
+- :mod:`.workers`: the chunks of a backend that steps Python environments on a pool of processes (``rwg.workers``);
 - :mod:`.env_checks`: the checks a gymnasium env passes before its returns are cached (reproducible resets,
   observation shapes, finite rewards);
 - :mod:`.contact_calibration`: the contact model's one-sweep rates, measured again on PyBullet
@@ -29,7 +32,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # what the package re-exports, for type checkers and readers; imported on first use (__getattr__)
     from taskcomplexity.rwg.arm_resets import initial_states
-    from taskcomplexity.rwg.backends import AUTO, BACKENDS, resolve_backend
+    from taskcomplexity.rwg.backends import AUTO, BACKENDS, Backend, Plan, Runner, resolve_backend
     from taskcomplexity.rwg.batch import run_batch, simulate_chunk
     from taskcomplexity.rwg.batched_backend import simulate_batched
     from taskcomplexity.rwg.chunking import ReturnChunk, chunk_size, chunks
@@ -38,7 +41,8 @@ if TYPE_CHECKING:  # what the package re-exports, for type checkers and readers;
     from taskcomplexity.rwg.settings import CONTACTS, RWGSettings
 
 _EXPORTS = {
-    "initial_states": "arm_resets", "AUTO": "backends", "BACKENDS": "backends", "resolve_backend": "backends",
+    "initial_states": "arm_resets", "AUTO": "backends", "BACKENDS": "backends", "Backend": "backends",
+    "Plan": "backends", "Runner": "backends", "resolve_backend": "backends",
     "simulate_batched": "batched_backend", "_simulate_batched": "batched_backend", "ReturnChunk": "chunking",
     "chunk_size": "chunking", "chunks": "chunking", "simulate_pybullet": "pybullet_backend",
     "_simulate_pybullet": "pybullet_backend", "run_batch": "batch", "run_rwg": "run", "simulate_chunk": "batch",
@@ -62,6 +66,7 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
-    "AUTO", "BACKENDS", "CONTACTS", "RWGSettings", "ReturnChunk", "chunk_size", "chunks", "initial_states",
+    "AUTO", "BACKENDS", "CONTACTS", "Backend", "Plan", "RWGSettings", "ReturnChunk", "Runner", "chunk_size", "chunks",
+    "initial_states",
     "resolve_backend", "run_batch", "run_rwg", "simulate_batched", "simulate_chunk", "simulate_pybullet",
 ]

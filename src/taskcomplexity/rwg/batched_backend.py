@@ -15,6 +15,8 @@ import torch
 
 from taskcomplexity.policies.families import EpisodeState, SteppedBatch
 from taskcomplexity.policies.mlp import PolicyBatch
+from taskcomplexity.rwg.arm_resets import initial_states
+from taskcomplexity.rwg.backends import Plan, Runner
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.rwg.pybullet_backend import finish_on_pybullet
 from taskcomplexity.tasks.spec import TaskSpec
@@ -87,3 +89,14 @@ def simulate_batched(
     return ReturnChunk(
         policies.indices.copy(), returns, steps, success, int(handoff.sum()), int(env.contact.numpy().sum())
     )
+
+
+class BatchedRunner(Runner):
+    """The ``batched`` backend's runner: each batch from its reset states (:mod:`taskcomplexity.rwg.arm_resets`)
+    through :func:`simulate_batched`."""
+
+    def run(self, policies: SteppedBatch, plan: Plan) -> ReturnChunk:
+        joint_angles, target = initial_states(self.task, plan.seed, policies.indices, plan.episodes,
+                                              plan.common_initial_states)
+        return simulate_batched(self.task, policies, joint_angles, target, plan.contacts, plan.progress,
+                                precision=plan.precision)

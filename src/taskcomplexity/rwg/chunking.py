@@ -8,13 +8,16 @@ initial state come from streams keyed by (seed, n) and (seed, n, e).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from taskcomplexity.policies.families import FamilySpec
-from taskcomplexity.rwg.gym_backend import environments_in_flight
-from taskcomplexity.rwg.settings import RWGSettings
-from taskcomplexity.tasks.base import Task
+from taskcomplexity.rwg.backends import BACKENDS
+
+if TYPE_CHECKING:
+    from taskcomplexity.policies.families import FamilySpec
+    from taskcomplexity.rwg.settings import RWGSettings
+    from taskcomplexity.tasks.base import Task
 
 
 @dataclass
@@ -59,22 +62,9 @@ class ReturnChunk:
 
 
 def chunk_size(task: Task, network: FamilySpec, settings: RWGSettings, backend: str) -> int:
-    """Policies per chunk: ``rwg.chunk_policies``, else what the backend runs well together (on the batched
-    and kernel backends, as many as ``rwg.chunk_memory_mb`` holds, at most 2048)."""
-    if settings.chunk_policies:
-        return settings.chunk_policies
-    if backend == "pybullet":
-        return 16
-    if backend == "envpool":
-        from taskcomplexity.rwg.envpool_backend import POLICIES_PER_POOL
-
-        return POLICIES_PER_POOL
-    if backend in ("gym", "vector"):
-        in_flight = environments_in_flight(task)
-        return max(1, in_flight // min(settings.episodes, in_flight))
-    per_env = 8 * network.working_floats(task.observation_size, task.action_size, task.max_steps)  # float64
-    envs = settings.chunk_memory_mb * 2**20 // per_env
-    return max(1, min(envs // settings.episodes, 2048))
+    """Policies per chunk on ``backend`` (resolved): ``rwg.chunk_policies``, else what the backend runs well
+    together (:meth:`taskcomplexity.rwg.backends.Backend.chunk_size`)."""
+    return BACKENDS[backend].chunk_size(task, network, settings)
 
 
 def chunks(task: Task, network: FamilySpec, settings: RWGSettings, backend: str) -> list[tuple[int, int]]:

@@ -280,5 +280,3 @@ def same(a, b) -> bool:
     return bool(np.array_equal(a, b, equal_nan=a.dtype.kind in "fc"))
 
 
-ENV_CHECKS = {"gym": check_env, "vector": check_vector_env}
-"""The check each backend that runs a researcher's own env code makes before any return is computed."""

@@ -33,12 +33,13 @@ from gymnasium import spaces
 from taskcomplexity.cores import usable_cores
 from taskcomplexity.errors import ConfigError, EnvError
 from taskcomplexity.policies.families import ActingBatch
-from taskcomplexity.rwg.gym_backend import ENVIRONMENTS_IN_FLIGHT
+from taskcomplexity.rwg.backends import BACKENDS, Plan, Runner, task_backends
+from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import decode_actions
 from taskcomplexity.tasks.envpool_ids import ENVPOOL_EXTRA, envpool_id, installed
 
-POLICIES_PER_POOL = ENVIRONMENTS_IN_FLIGHT
+POLICIES_PER_POOL = BACKENDS["envpool"].chunk_policies
 """Policies of one chunk, each with one environment in the pool (256): EnvPool keeps 2 cores busy stepping 256
 environments in lock-step, ~1.1–1.4 with 64. A DM Control environment holds ~12 MB and takes ~60 ms to make, a
 MuJoCo one ~0.7 MB and ~2 ms."""
@@ -51,11 +52,9 @@ while the next group's policies compute their actions, so the threads do not wai
 pool in lock-step). The returns do not depend on it (each environment is its policy's alone)."""
 
 
-def simulator(task, backend: str) -> str | None:
-    """What simulates ``task`` on ``backend`` beyond the task's own identity, for the RWG key: EnvPool's version
-    on ``envpool`` (its own MuJoCo build and reset generator), None elsewhere."""
-    if backend != "envpool":
-        return None
+def simulator() -> str:
+    """What simulates a task on this backend beyond the task's own identity, for the RWG key: EnvPool's version (its
+    own MuJoCo build and reset generator)."""
     from importlib.metadata import version
 
     return f"envpool {version('envpool')}"
@@ -85,7 +84,7 @@ def make_pool(task, seeds: np.ndarray):
         raise ConfigError(f"backend=envpool cannot run task {task.task_id}: "
                           + ("EnvPool is not installed: " + ENVPOOL_EXTRA if not installed() else
                              "EnvPool simulates gymnasium's MuJoCo ids and DM Control's (through Shimmy) with no "
-                             "task.kwargs") + " (allowed: auto, " + ", ".join(task.backends) + ")")
+                             "task.kwargs") + " (allowed: auto, " + ", ".join(task_backends(task)) + ")")
     import envpool
 
     return envpool.make(name, env_type="gymnasium", num_envs=len(seeds), env_seed=[int(s) for s in seeds],
@@ -221,3 +220,11 @@ def run_envpool(task, policies: ActingBatch, seed: int, episodes: int, common_in
         for group in groups:
             group.close()
     return returns, steps, np.zeros((n_pol, episodes), dtype=bool)
+
+
+class EnvPoolRunner(Runner):
+    """The ``envpool`` backend's runner: :func:`run_envpool` for each batch (a pool of its policies' environments)."""
+
+    def run(self, policies: ActingBatch, plan: Plan) -> ReturnChunk:
+        return ReturnChunk(policies.indices.copy(),
+                           *run_envpool(self.task, policies, plan.seed, plan.episodes, plan.common_initial_states))

@@ -10,7 +10,7 @@ from __future__ import annotations
 from threadpoolctl import threadpool_limits
 
 from taskcomplexity.policies.mlp import PolicyBatch
-from taskcomplexity.rwg.backends import resolve_backend
+from taskcomplexity.rwg.backends import Plan, resolve_backend
 from taskcomplexity.rwg.batch import run_batch
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.tasks.base import Task
@@ -38,5 +38,4 @@ def run_policies(task: Task, policies: PolicyBatch, *, seed: int, episodes: int,
     """
     backend = resolve_backend(task, backend)
     with threadpool_limits(limits=1, user_api="blas"):  # as run_rwg: BLAS threads would spin against the workers
-        return run_batch(task, policies, backend, seed=seed, episodes=episodes,
-                         common_initial_states=common_initial_states, contacts=contacts)
+        return run_batch(task, policies, backend, Plan(seed, episodes, common_initial_states, contacts))

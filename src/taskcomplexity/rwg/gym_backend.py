@@ -20,19 +20,11 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.policies.families import ActingBatch
+from taskcomplexity.rwg.backends import ENVIRONMENTS_IN_FLIGHT, Plan, Runner, environments_in_flight
+from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.rwg.env_checks import check_observation, check_reward, reset_env, step_env
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
-
-ENVIRONMENTS_IN_FLIGHT = 256
-"""Default number of environments stepped together (the pool's size)."""
-
-
-def environments_in_flight(task: Task) -> int:
-    """The pool's size for ``task``: the env class's ``environments_in_flight`` when it declares one (an env that is
-    slow to build and to step gains nothing from a wider forward pass, e.g. Meta-World's), else
-    :data:`ENVIRONMENTS_IN_FLIGHT`. Only the speed depends on it, never the returns."""
-    return int(getattr(task, "environments_in_flight", None) or ENVIRONMENTS_IN_FLIGHT)
 
 
 def slots_per_policy(policies: int, episodes: int, in_flight: int = ENVIRONMENTS_IN_FLIGHT) -> int:
@@ -150,3 +142,18 @@ class GymRollout:
                         running.append(slot)
                 active = running
         return returns, steps, success
+
+
+class GymRunner(Runner):
+    """The ``gym`` backend's runner: one :class:`GymRollout` for every batch of a run (its environments reused)."""
+
+    def __init__(self, task: Task):
+        super().__init__(task)
+        self.rollout = GymRollout(task)
+
+    def run(self, policies: ActingBatch, plan: Plan) -> ReturnChunk:
+        return ReturnChunk(policies.indices.copy(),
+                           *self.rollout.run(policies, plan.seed, plan.episodes, plan.common_initial_states))
+
+    def close(self) -> None:
+        self.rollout.close()

@@ -5,7 +5,7 @@ All M episodes of all P policies of a chunk run at once: one batched policy forw
 backend reads it) and one parallel numba step (:func:`taskcomplexity.tasks.classic.kernels.step_all`) per
 environment step. Episode e of policy n starts from the state that
 ``env.reset(seed=episode_reset_seeds(seed, n, e))`` would draw, so the returns equal the ``gym`` backend's
-(``tests/tasks/test_classic_kernels.py`` states the tolerance). An env whose step draws random numbers (the
+(``tests/rwg/test_kernel_backend.py`` states the tolerance). An env whose step draws random numbers (the
 noisy CartPole) carries each episode's generator along with its state (four uint64 words per slot),
 continued from the reset's draws as the env continues its ``np_random``.
 
@@ -22,6 +22,8 @@ from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.families import ActingBatch
+from taskcomplexity.rwg.backends import Plan, Runner
+from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.classic import ClassicKernel, kernel_for
 from taskcomplexity.tasks.classic.kernels import observe_all, step_all, step_serial
@@ -37,7 +39,7 @@ def task_kernel(task) -> ClassicKernel:
     """The kernel of a task (a GymTask whose id and arguments have one)."""
     kernel = kernel_for(getattr(task, "env_id", ""), getattr(task, "kwargs", {}))
     if kernel is None:
-        raise ConfigError(f"backend=kernel: task {task.task_id} has no batched kernel (use backend=gym)")
+        raise ConfigError(f"backend=kernel: task {task.task_id} has no batched kernel (allowed: auto, gym)")
     return kernel
 
 
@@ -127,3 +129,11 @@ def _compaction(running: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rows = np.flatnonzero(counts)
     order = np.argsort(~running[rows], axis=1, kind="stable")[:, : counts.max()]
     return rows, rows[:, None] * running.shape[1] + order
+
+
+class KernelRunner(Runner):
+    """The ``kernel`` backend's runner: :func:`run_kernel` for each batch."""
+
+    def run(self, policies: ActingBatch, plan: Plan) -> ReturnChunk:
+        return ReturnChunk(policies.indices.copy(),
+                           *run_kernel(self.task, policies, plan.seed, plan.episodes, plan.common_initial_states))

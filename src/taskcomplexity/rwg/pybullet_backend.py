@@ -13,6 +13,8 @@ import numpy as np
 import torch
 
 from taskcomplexity.policies.families import EpisodeState, SteppedBatch
+from taskcomplexity.rwg.arm_resets import initial_states
+from taskcomplexity.rwg.backends import Plan, Runner
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.tasks.spec import TaskSpec
 
@@ -153,3 +155,13 @@ def run_episode(env, policy: SteppedBatch, obs: np.ndarray, max_steps: int,
                 ok = info["success"]
                 break
     return total, n, ok
+
+
+class PyBulletRunner(Runner):
+    """The ``pybullet`` backend's runner: each batch from its reset states (:mod:`taskcomplexity.rwg.arm_resets`)
+    through :func:`simulate_pybullet`."""
+
+    def run(self, policies: SteppedBatch, plan: Plan) -> ReturnChunk:
+        joint_angles, target = initial_states(self.task, plan.seed, policies.indices, plan.episodes,
+                                              plan.common_initial_states)
+        return simulate_pybullet(self.task, policies, joint_angles, target)

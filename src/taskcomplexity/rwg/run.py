@@ -2,10 +2,10 @@
 
 :func:`run_rwg` resolves the backend (refusing one the task or the family cannot run, before any work), splits
 the shard into chunks (:mod:`taskcomplexity.rwg.chunking`) and runs each through
-:func:`taskcomplexity.rwg.batch.simulate_chunk` (the gym backend's on a pool of processes,
-:mod:`taskcomplexity.rwg.workers`), which samples the chunk's policies
-(:func:`taskcomplexity.policies.families.sample_family`) and hands them to
-:func:`taskcomplexity.rwg.batch.run_batch`, the one dispatch over the backends.
+:func:`taskcomplexity.rwg.batch.simulate_chunk` (on a pool of ``rwg.workers`` processes where the backend steps
+Python environments, :mod:`taskcomplexity.rwg.workers`), which samples the chunk's policies
+(:func:`taskcomplexity.policies.families.sample_family`) and hands them to the backend's runner
+(:func:`taskcomplexity.rwg.batch.run_batch`), opened once for the run.
 """
 
 from __future__ import annotations
@@ -17,12 +17,11 @@ from threadpoolctl import threadpool_limits
 from taskcomplexity.policies.families import FamilySpec
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.progress import Progress, progress_bar
-from taskcomplexity.rwg.backends import resolve_backend
+from taskcomplexity.rwg.backends import BACKENDS, resolve_backend
 from taskcomplexity.rwg.batch import simulate_chunk
 from taskcomplexity.rwg.chunking import ReturnChunk, chunks
-from taskcomplexity.rwg.gym_backend import GymRollout
 from taskcomplexity.rwg.settings import RWGSettings
-from taskcomplexity.rwg.workers import gym_workers, run_on_workers
+from taskcomplexity.rwg.workers import run_on_workers, worker_count
 from taskcomplexity.tasks.base import Task
 
 
@@ -31,7 +30,7 @@ def run_rwg(
     network: FamilySpec,
     prior: PriorSpec,
     settings: RWGSettings,
-    backend: str = "batched",
+    backend: str = "auto",
     *,
     completed: dict[tuple[int, int], ReturnChunk] | None = None,
     on_chunk: Callable[[tuple[int, int], ReturnChunk], None] | None = None,
@@ -69,8 +68,9 @@ def run_rwg(
     total = sum(b - a for a, b in ranges) * settings.episodes
     bar = progress_bar(progress, total=total, unit="ep", desc=f"rwg {task.task_id} [{backend}]", smoothing=0.1)
     pending = [key for key in ranges if key not in completed]
-    workers = gym_workers(settings, len(pending)) if backend == "gym" else 1
-    rollout = GymRollout(task) if backend == "gym" and workers == 1 else None
+    declared = BACKENDS[backend]
+    workers = worker_count(settings, len(pending)) if declared.worker_processes else 1
+    runner = declared.open(task) if workers == 1 and pending else None
 
     def done(key: tuple[int, int], chunk: ReturnChunk) -> None:
         completed[key] = chunk
@@ -83,15 +83,15 @@ def run_rwg(
     # workers would only spin against them. One BLAS thread per worker computes the same products.
     blas = threadpool_limits(limits=1, user_api="blas")
     try:
-        if workers > 1:  # the gym backend's chunks on a pool of processes, each stepping its own environments
-            run_on_workers(task, network, prior, settings, pending, workers, done)
+        if workers > 1:  # Python environments: the chunks on a pool of processes, each stepping its own
+            run_on_workers(task, network, prior, settings, backend, pending, workers, done)
         for key in pending:
             if key not in completed:
                 done(key, simulate_chunk(task, network, prior, settings, *key, backend=backend,
-                                             progress=progress is True, rollout=rollout))
+                                         progress=progress is True, runner=runner))
     finally:
         blas.restore_original_limits()
         bar.close()
-        if rollout is not None:
-            rollout.close()
+        if runner is not None:
+            runner.close()
     return ReturnChunk.concatenate([completed[k] for k in ranges])

@@ -35,8 +35,9 @@ class RWGSettings:
     shard, shards : int
         This job simulates policy range ``shard`` of ``shards`` equal ranges.
     workers : int
-        Processes stepping the gym backend's environments, each a chunk at a time (0: one per usable core; at
-        most one per chunk). The other backends use the cores within one process.
+        Processes stepping the environments of a backend whose chunks run on workers (``gym``, ``vector``:
+        :attr:`taskcomplexity.rwg.backends.Backend.worker_processes`), each a chunk at a time (0: one per usable core;
+        at most one per chunk). The other backends run in one process, where a value other than 0 is refused.
     contacts : {'pybullet', 'model'}
         The obstacle task's forearm–block contacts on the batched backend: ``pybullet`` finishes each
         episode that reaches the block on the PyBullet reference (exact, PyBullet's speed);

@@ -23,7 +23,9 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.policies.families import ActingBatch
-from taskcomplexity.rwg.gym_backend import environments_in_flight, slots_per_policy
+from taskcomplexity.rwg.backends import Plan, Runner, environments_in_flight
+from taskcomplexity.rwg.chunking import ReturnChunk
+from taskcomplexity.rwg.gym_backend import slots_per_policy
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import decode_actions, encode_observations
 from taskcomplexity.tasks.vectorised import make_vector
@@ -68,3 +70,11 @@ def run_vector(task, policies: ActingBatch, seed: int, episodes: int, common_ini
     finally:
         env.close()
     return returns, steps, success
+
+
+class VectorRunner(Runner):
+    """The ``vector`` backend's runner: :func:`run_vector` for each batch (a vector env of its environments)."""
+
+    def run(self, policies: ActingBatch, plan: Plan) -> ReturnChunk:
+        return ReturnChunk(policies.indices.copy(),
+                           *run_vector(self.task, policies, plan.seed, plan.episodes, plan.common_initial_states))

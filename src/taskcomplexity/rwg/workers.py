@@ -1,10 +1,12 @@
-"""The gym backend on several processes: each worker steps the environments of whole chunks.
+"""A backend that steps Python environments on several processes (``rwg.workers``): each worker runs whole chunks.
 
-A chunk's returns depend only on (task, policy n, episode e, seed) (:mod:`taskcomplexity.rwg.gym_backend`), so
-chunks run on any worker, in any order, give the returns one process gives. Workers start the platform's way
-(``fork`` on Linux, so an env registered by the calling script is registered in them too) and, as PyTorch's
-data-loader workers do, run their policies' forward pass on one thread (a forked OpenMP pool is not used);
-each holds one environment pool for the whole run, so W workers keep W cores stepping environments.
+A chunk's returns depend only on (task, policy n, episode e, seed), so chunks run on any worker, in any order, give
+the returns one process gives. The backends whose chunks run on workers declare it
+(:attr:`taskcomplexity.rwg.backends.Backend.worker_processes`: ``gym``, ``vector``); the others run in one process.
+Workers start the platform's way (``fork`` on Linux, so an env registered by the calling script is registered in
+them too) and, as PyTorch's data-loader workers do, run their policies' forward pass on one thread (a forked OpenMP
+pool is not used); each opens the backend's runner once for the whole run (the ``gym`` backend's pool of
+environments), so W workers keep W cores stepping environments.
 """
 
 from __future__ import annotations
@@ -23,36 +25,36 @@ from taskcomplexity.errors import WorkerLost
 from taskcomplexity.policies.families import FamilySpec
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.processes import start_worker, stop_pool
+from taskcomplexity.rwg.backends import BACKENDS, Runner
 from taskcomplexity.rwg.batch import simulate_chunk
 from taskcomplexity.rwg.chunking import ReturnChunk
-from taskcomplexity.rwg.gym_backend import GymRollout
 from taskcomplexity.rwg.settings import RWGSettings
 from taskcomplexity.tasks.base import Task
 
-_ROLLOUT: GymRollout | None = None
-"""The environment pool of this worker process (made by :func:`_start`)."""
+_RUNNER: Runner | None = None
+"""The backend's runner of this worker process (opened by :func:`_start`)."""
 
 
-def gym_workers(settings: RWGSettings, chunks: int) -> int:
+def worker_count(settings: RWGSettings, chunks: int) -> int:
     """Processes to step ``chunks`` chunks: ``rwg.workers`` (0: one per usable core), at most one per chunk."""
     return max(1, min(settings.workers or usable_cores(), chunks))
 
 
-def _start(task: Task) -> None:
-    global _ROLLOUT
+def _start(task: Task, backend: str) -> None:
+    global _RUNNER
     start_worker()
     torch.set_num_threads(1)
     threadpool_limits(limits=1)
-    _ROLLOUT = GymRollout(task)
-    atexit.register(_ROLLOUT.close)
+    _RUNNER = BACKENDS[backend].open(task)
+    atexit.register(_RUNNER.close)
 
 
-def _chunk(task: Task, network: FamilySpec, prior: PriorSpec, settings: RWGSettings, start: int,
+def _chunk(task: Task, network: FamilySpec, prior: PriorSpec, settings: RWGSettings, backend: str, start: int,
            stop: int) -> ReturnChunk:
-    return simulate_chunk(task, network, prior, settings, start, stop, backend="gym", rollout=_ROLLOUT)
+    return simulate_chunk(task, network, prior, settings, start, stop, backend=backend, runner=_RUNNER)
 
 
-def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: RWGSettings,
+def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: RWGSettings, backend: str,
                    keys: Sequence[tuple[int, int]], workers: int,
                    done: Callable[[tuple[int, int], ReturnChunk], None]) -> None:
     """Run the chunks ``keys`` ([start, stop) policy ranges) on ``workers`` processes; ``done(key, chunk)`` is
@@ -66,9 +68,9 @@ def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: 
     error: BaseException | None = None
     finished = 0
     pool = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start,
-                                                  initargs=(task,))
+                                                  initargs=(task, backend))
     try:
-        futures = {pool.submit(_chunk, task, network, prior, settings, *key): key for key in keys}
+        futures = {pool.submit(_chunk, task, network, prior, settings, backend, *key): key for key in keys}
         for future in concurrent.futures.as_completed(futures):
             if future.cancelled():
                 continue

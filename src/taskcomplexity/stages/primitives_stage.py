@@ -31,6 +31,7 @@ from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.policies.families import network_from_config
 from taskcomplexity.policies.mlp import PriorSpec
 from taskcomplexity.policies.primitives import PrimitiveSpec
+from taskcomplexity.rwg.backends import AUTO, family_backends
 from taskcomplexity.stages import metrics_stage, rwg_stage
 from taskcomplexity.stages.cache import Artefact, Cache
 from taskcomplexity.stages.keys import Numerics, stage_key
@@ -115,8 +116,9 @@ class PrimitivesSettings:
         rwg = dataclasses.replace(rwg, policies=self.policies or rwg.policies, episodes=self.episodes or rwg.episodes,
                                   shard=0, shards=1, precision="float64")  # rwg.precision is the MLPs' forward pass
         rwg.validate()
-        backend = study_request.backend if study_request.backend != "gym" else "auto"
-        return RWGRequest(study_request.task, self.network, self.prior, rwg, backend)
+        backend = study_request.backend  # the study's, where the family runs on it, else the family's fastest
+        return RWGRequest(study_request.task, self.network, self.prior, rwg,
+                          backend if backend in family_backends(self.network) else AUTO)
 
 
 def primitives_key(request: RWGRequest, metrics: MetricsSettings, settings: PrimitivesSettings,

@@ -24,7 +24,7 @@ import numpy as np
 from taskcomplexity.config import canonical, result_identity
 from taskcomplexity.errors import ArtefactError, ConfigError
 from taskcomplexity.jobs import JobMeter, saved_records
-from taskcomplexity.rwg.backends import AUTO, resolve_backend
+from taskcomplexity.rwg.backends import AUTO, BACKENDS, refuse_workers, resolve_backend
 from taskcomplexity.rwg.settings import RWGSettings
 from taskcomplexity.stages.cache import Artefact, Cache, remove_orphans, waiting_lock
 from taskcomplexity.stages.keys import Numerics, stage_key
@@ -48,16 +48,15 @@ EPISODES = (
     "policies.mlp", "policies.tanh", "policies.tanh_kernel", "policies.primitives", "policies.movement_primitives",
     "seeding",
     "rwg", "rwg.settings", "rwg.backends", "rwg.chunking", "rwg.run", "rwg.batch", "rwg.arm_resets",
-    "rwg.batched_backend",
-    "rwg.pybullet_backend", "rwg.kernel_backend", "rwg.gym_backend", "rwg.envpool_backend",
-    "rwg.vector_backend",
+    *dict.fromkeys(b.runner.partition(":")[0].removeprefix("taskcomplexity.") for b in BACKENDS.values()),
     "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.reward_kinds", "tasks.urdf", "tasks.batched",
     "tasks.dynamics", "tasks.contact", "tasks.step_kernel", "tasks.rollout_kernel", "tasks.pybullet_env",
     "tasks.gym_task", "tasks.classic", "tasks.classic.kernels", "tasks.classic.resets", "tasks.envpool_ids",
     "tasks.vectorised", "tasks.manipulation",
 )
 """The modules that make a task's episodes under a batch of sampled policies: the policy families and their
-sampling, the physics and reward kernels, the PyBullet and gymnasium envs, the backends that step them."""
+sampling, the physics and reward kernels, the PyBullet and gymnasium envs, the backends that step them (each
+registered backend's module, read from :data:`taskcomplexity.rwg.backends.BACKENDS`)."""
 NUMERICS = Numerics(version=1, modules=(*EPISODES, "stages.rwg_stage"))
 RETURNS = "returns.parquet"
 
@@ -82,9 +81,11 @@ class RWGRequest:
 
         object.__setattr__(self, "backend", resolve_backend(self.task, str(self.backend), self.network))
         if self.settings.precision != "float64":
-            if self.backend != "batched" or not isinstance(self.network, NetworkSpec):
-                raise ConfigError(f"rwg.precision={self.settings.precision} is the MLP forward pass of the batched "
-                                  f"backend (reaching arms); {self.task.task_id} runs backend={self.backend} with "
+            if self.settings.precision not in BACKENDS[self.backend].precisions or not isinstance(self.network,
+                                                                                                   NetworkSpec):
+                fused = ", ".join(b.name for b in BACKENDS.values() if self.settings.precision in b.precisions)
+                raise ConfigError(f"rwg.precision={self.settings.precision} is the MLP forward pass of the {fused} "
+                                  f"backend; {self.task.task_id} runs backend={self.backend} with "
                                   f"network.family={getattr(self.network, 'family', 'mlp')} (allowed there: float64)")
             if self.task.arm.obstacle is not None:  # like rwg.contacts off the obstacle task: not this task's setting
                 log.debug("%s: the forward pass stays float64 under rwg.precision=%s (the block's contacts are "
@@ -106,10 +107,7 @@ class RWGRequest:
             "backend": self.backend,
             **result_identity(self.settings),
         }
-        from taskcomplexity.rwg.envpool_backend import simulator as backend_simulator
-
-        if (simulator := backend_simulator(self.task, self.backend)) is not None:
-            identity["simulator"] = simulator  # EnvPool's own build of MuJoCo and its own reset generator
+        identity.update(BACKENDS[self.backend].key_fields())  # e.g. EnvPool's own MuJoCo build and reset generator
         if not self.models_contacts:
             identity.pop("contacts")
         if self.settings.precision == "float64":  # the keys from before the setting existed
@@ -120,7 +118,7 @@ class RWGRequest:
     def models_contacts(self) -> bool:
         """Whether the obstacle's contacts come from the batched contact model rather than PyBullet."""
         arm = getattr(self.task, "arm", None)
-        return arm is not None and arm.obstacle is not None and self.backend == "batched" \
+        return arm is not None and arm.obstacle is not None and BACKENDS[self.backend].contact_model \
             and self.settings.contacts == "model"
 
     @property
@@ -252,23 +250,21 @@ BYTES_IN_MEMORY_PER_EPISODE = 64
 """Peak resident bytes per episode while a shard is merged into the tidy table (arrays + frame + writer)."""
 BYTES_ON_DISK_PER_EPISODE = 48
 """Peak disk use per episode: saved chunks and the shard file (17 B each, uncompressed) and the parquet artefact."""
-STEPPED_AT_ONCE = ("batched", "kernel")
-"""The backends that step a chunk's P × M episodes at once, each holding its working memory
-(:meth:`~taskcomplexity.policies.families.FamilySpec.working_floats`); the others keep a bounded number of
-environments in flight whatever the chunk."""
 
 
 def check_memory(request: RWGRequest) -> None:
     """Refuse, before any work, a run whose memory need is beyond this machine, with the estimate: its tidy table,
-    and one chunk's working memory on the backends that step a chunk's P × M episodes at once (``batched``,
-    ``kernel``), which an explicit ``rwg.chunk_policies`` sets instead of ``rwg.chunk_memory_mb``."""
+    and one chunk's working memory on a backend that steps a chunk's P × M episodes at once
+    (:attr:`~taskcomplexity.rwg.backends.Backend.steps_at_once`, each episode holding
+    :meth:`~taskcomplexity.policies.families.FamilySpec.working_floats`), which an explicit ``rwg.chunk_policies``
+    sets instead of ``rwg.chunk_memory_mb``; the others keep a bounded number of environments in flight."""
     from taskcomplexity.rwg.chunking import chunk_size
 
     settings = request.settings
     episodes = settings.policies * settings.episodes
     what = f"rwg.policies × rwg.episodes = {settings.policies:,} × {settings.episodes:,}"
     refuse_beyond_memory(episodes * BYTES_IN_MEMORY_PER_EPISODE, what, "lower N or M")
-    if request.backend not in STEPPED_AT_ONCE:
+    if not BACKENDS[request.backend].steps_at_once:
         return
     start, stop = settings.shard_range()
     policies = min(chunk_size(request.task, request.network, settings, request.backend), stop - start)
@@ -344,7 +340,9 @@ def run_rwg_stage(
         ``artefact`` is None when this job finished its shard but others are still missing and
         ``compute_missing`` is False.
     """
-    from taskcomplexity.rwg.env_checks import ENV_CHECKS, EnvContractError
+    from pkgutil import resolve_name
+
+    from taskcomplexity.rwg.env_checks import EnvContractError
 
     request.settings.validate()
     key = request.key
@@ -352,9 +350,9 @@ def run_rwg_stage(
         log.info("cache hit: rwg %s (%s) at %s", key, request.label, found.path)
         return found, True
     cache.require_writable(STAGE, key)
-    check = ENV_CHECKS.get(request.backend)  # the backends that run a researcher's own env code
+    check = BACKENDS[request.backend].check  # on a backend that runs a researcher's own env code
     if check is not None:
-        check(request.task, request.settings.seed)  # before anything is created under the cache
+        resolve_name(check)(request.task, request.settings.seed)  # before anything is created under the cache
     check_plan(cache, request)
     started = time.time()
     shards = request.settings.shards
@@ -436,6 +434,7 @@ def _returns(work: StudyWork) -> dict:
 
 
 def _check_rwg(settings: RWGSettings, study, requests, typed) -> None:
+    refuse_workers(settings.workers, [r.backend for r in requests], f"study {study.name}")
     for request in requests:
         check_memory(request)
 

@@ -26,6 +26,7 @@ from taskcomplexity.errors import ConfigError, WorkerLost
 from taskcomplexity.jobs import JobMeter
 from taskcomplexity.processes import start_worker, stop_pool
 from taskcomplexity.rl.settings import (
+    OWN_ENV,
     SACSettings,
     backend_identity,
     device_identity,
@@ -51,6 +52,7 @@ NUMERICS = Numerics(version=1, modules=(
     "seeding", "tasks.base", "tasks.spec", "tasks.mechanics", "tasks.rewards", "tasks.reward_kinds", "tasks.urdf",
     "tasks.pybullet_env", "tasks.goal_env", "tasks.gym_task", "tasks.batched_vector", "tasks.batched",
     "tasks.step_kernel", "tasks.dynamics", "tasks.rollout_kernel", "tasks.contact", "tasks.manipulation",
+    "rwg.backends",  # which vector env steps the environments (sac.backend)
     "stages.sac_stage",
 ))
 CURVES = "curves.parquet"
@@ -415,9 +417,9 @@ def _check_sac(settings: SACSettings, study, requests, typed: list[str]) -> None
         if sac_skip_reason(request.task) is None:
             budgeted = with_budget(settings, entry.sac_steps, task_id=entry.id)
             check_resources(request.task, budgeted)
-    if settings.backend == "batched" and not any(env_backend(r.task, settings) == "batched" for r in requests):
-        raise ConfigError(f"sac.backend=batched steps the environments of contact-free reaching arms, and study "
-                          f"{study.name} has none (its tasks keep their own environments): drop it")
+    if settings.backend != OWN_ENV and not any(env_backend(r.task, settings) for r in requests):
+        raise ConfigError(f"sac.backend={settings.backend} steps the environments of none of study {study.name}'s "
+                          "tasks (they keep their own environments): drop it")
 
 
 RECORD = Stage(STAGE, NUMERICS, (CURVES,), _sac, group="sac", settings=SACSettings, check=_check_sac,

@@ -39,8 +39,6 @@ class Task(Protocol):
     observation_size, action_size : int
         Width of the policy's input (flattened observation; one-hot for Discrete) and output (action
         dimensions; one output per action for Discrete).
-    backends : tuple of str
-        RWG backends that can simulate the task, fastest exact one first (the default).
     """
 
     @property
@@ -63,9 +61,6 @@ class Task(Protocol):
 
     @property
     def action_size(self) -> int: ...
-
-    @property
-    def backends(self) -> tuple[str, ...]: ...
 
     def make_env(self, **kwargs: Any) -> gymnasium.Env:
         """A fresh single environment with the task's time limit."""

@@ -87,26 +87,10 @@ class GymTask:
             return self.name
         return re.sub(r"[^A-Za-z0-9_.\-]+", "_", self.env_id.rpartition(":")[2])
 
-    @property
-    def backends(self) -> tuple[str, ...]:
-        # An id (with constructor arguments) that has a classic-control kernel runs on it by default: the
-        # kernel steps every episode of a chunk at once and reproduces gymnasium's episodes exactly.
-        # One that EnvPool simulates (gymnasium's MuJoCo tasks, DM Control's) runs on its C++ thread pool by default,
-        # one that registers a vector env seeding each of its environments on that env.
-        from taskcomplexity.tasks.classic import kernel_for
-        from taskcomplexity.tasks.envpool_ids import envpool_id
-        from taskcomplexity.tasks.vectorised import seeds_each
-
-        if kernel_for(self.env_id, self.kwargs) is not None:
-            return ("kernel", "gym")
-        if envpool_id(self) is not None:
-            return ("envpool", "gym")
-        return ("vector", "gym") if seeds_each(self) else ("gym",)
-
     @functools.cached_property
     def environments_in_flight(self) -> int | None:
-        """How many of its envs the gym backend steps together, when the env class declares it (its
-        ``environments_in_flight`` attribute; None: the backend's default)."""
+        """How many of its envs a backend steps together, when the env class declares it (its
+        ``environments_in_flight`` attribute; None: the backends' default)."""
         entry = self.spec.entry_point
         if isinstance(entry, str):
             try:

@@ -261,12 +261,6 @@ class TaskSpec:
 
         return spaces.Box(-1.0, 1.0, (self.action_size,), dtype=np.float64)
 
-    @property
-    def backends(self) -> tuple[str, ...]:
-        """``batched`` (the numba kernel, exact), ``pybullet`` (the reference), ``gym`` (the reference
-        env stepped through the generic backend, reset by seed)."""
-        return ("batched", "pybullet", "gym")
-
     def make_env(self, **kwargs):
         """The PyBullet reference env with a ``max_steps`` time limit (loaded from its entry point, lazily)."""
         import gymnasium
