@@ -53,8 +53,15 @@ def test_each_backend_runs_rwg_on_a_task_it_simulates_when_its_libraries_are_ins
     """Three policies × two episodes on the first of a few tasks the backend simulates: finite returns, each
     episode at least one step, the policies in order."""
     candidates = ["CartPole-v1", "Pendulum-v1", "Hopper-v5", "vector_pendulum:VectorPendulum-v0"]
-    tasks = [make_task("one_link_1m0", "dense"), *map(GymTask, candidates)]
-    task = next((t for t in tasks if name in task_backends(t)), None)
+    def tasks():
+        yield make_task("one_link_1m0", "dense")
+        for env_id in candidates:
+            try:
+                yield GymTask(env_id)
+            except ConfigError:  # its extra (MuJoCo) is not installed
+                continue
+
+    task = next((t for t in tasks() if name in task_backends(t)), None)
     if task is None:
         pytest.skip(f"no test task runs on {name} here (its extra is not installed)")
     chunk = run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=3, episodes=2, seed=2), name)
