@@ -162,3 +162,11 @@ def copy_repository(target: Path, source: Path = REPOSITORY) -> Path:
         elif path.is_file():
             shutil.copy2(path, target / name)
     return target
+
+
+def environment(root: Path) -> dict[str, str]:
+    """The environment of a command run on the copy at ``root``: its sources first on the path; no HYDRA_FULL_ERROR
+    (refusals stay one line), no pytest variables of the calling run."""
+    env = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR" and not k.startswith("PYTEST_")}
+    env["PYTHONPATH"] = str(root / "src")
+    return env

@@ -6,7 +6,6 @@ cannot drift from the code: a line it inserts at that moved, or a file count tha
 
 from __future__ import annotations
 
-import os
 import re
 import subprocess
 import sys
@@ -14,19 +13,22 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from howto import apply, blocks, commands, copy_repository, page, skip_if_followed, stated_counts, touched
+from howto import (
+    apply,
+    blocks,
+    commands,
+    copy_repository,
+    environment,
+    page,
+    skip_if_followed,
+    stated_counts,
+    touched,
+)
 
 PAGE = "add-a-backend.md"
 FILES = ["src/taskcomplexity/rwg/serial_backend.py", "src/taskcomplexity/rwg/backends.py",
          "src/taskcomplexity/rwg/__init__.py"]
 """The files the page touches, in its order."""
-
-
-def environment(root: Path) -> dict[str, str]:
-    """The sources of ``root`` first on the path; no HYDRA_FULL_ERROR (refusals stay one line)."""
-    env = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR" and not k.startswith("PYTEST_")}
-    env["PYTHONPATH"] = str(root / "src")
-    return env
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,6 @@ So the page cannot drift from the code: a line it inserts at that moved, or a fi
 
 from __future__ import annotations
 
-import os
 import re
 import subprocess
 import sys
@@ -14,7 +13,17 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from howto import REPOSITORY, apply, blocks, copy_repository, page, skip_if_followed, stated_counts, touched
+from howto import (
+    REPOSITORY,
+    apply,
+    blocks,
+    copy_repository,
+    environment,
+    page,
+    skip_if_followed,
+    stated_counts,
+    touched,
+)
 
 ROOT = REPOSITORY
 PAGE = "add-a-policy-family.md"
@@ -30,13 +39,6 @@ RUNS = (("kernel", "Pendulum-v1"), ("gym", "CartPole-v1"))
 def fenced(language: str) -> list[str]:
     """The page's code blocks in ``language``."""
     return [m["text"] for m in FENCE.finditer(page(PAGE)) if m["language"] == language]
-
-
-def environment(root: Path) -> dict[str, str]:
-    """The sources of ``root`` first on the path; no HYDRA_FULL_ERROR (refusals stay one line)."""
-    env = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR" and not k.startswith("PYTEST_")}
-    env["PYTHONPATH"] = str(root / "src")
-    return env
 
 
 @pytest.fixture(scope="module")
