@@ -14,7 +14,10 @@ Per task and policy network, environment steps per second of
 
 ``make_vec`` and envpool auto-reset from their own generators (seeded by the run seed), so they run the
 same policies on the same kind of work, not the same episodes. Every figure is the median of the
-repeats; a first small run of each backend (numba compilation, env construction) is not timed.
+repeats; a first small run of each backend (numba compilation, env construction) is not timed. Per task and network a
+``floor:`` line (``bench/floors.py``) gives the kernel backend's CPU per step over the forward pass's per row: its
+×floor on the CPU path this runs on (``bench/run.py`` runs this script again on the AVX2 path with
+``--paths-repeats 0``).
 
 Then both CPU paths side by side (``--paths-repeats 0`` skips it): the classic-control study, ``pipelines/study.py
 study=classic_control`` at N = M = ``--paths-policies`` (RWG, metrics, diagnostics, verdict and report, in fresh
@@ -38,6 +41,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import floors
 import numpy as np
 import torch
 from gymnasium import spaces
@@ -60,26 +64,29 @@ NETWORKS = {
 }
 
 
-def median_rate(run, repeats: int, warm=None) -> float:
-    """Median of ``repeats`` timed calls of ``run() -> steps``: steps per second (after ``warm()`` or a run)."""
+def median_rate(run, repeats: int, warm=None) -> tuple[float, float]:
+    """Medians of ``repeats`` timed calls of ``run() -> steps`` (after ``warm()`` or a run): steps per second (wall),
+    and CPU-µs per step (this process's threads)."""
     (warm or run)()
-    rates = []
+    rates, cpu = [], []
     for _ in range(repeats):
-        started = time.perf_counter()
+        started, started_cpu = time.perf_counter(), time.process_time()
         steps = run()
         rates.append(steps / (time.perf_counter() - started))
-    return statistics.median(rates)
+        cpu.append((time.process_time() - started_cpu) / steps * 1e6)
+    return statistics.median(rates), statistics.median(cpu)
 
 
-def rwg_rate(task, network, backend, policies, episodes, repeats) -> float:
+def rwg_rate(task, network, backend, policies, episodes, repeats) -> tuple[float, float]:
     settings = RWGSettings(policies=policies, episodes=episodes, seed=0)
     small = RWGSettings(policies=2, episodes=2, seed=0)
     return median_rate(lambda: int(run_rwg(task, network, PriorSpec(), settings, backend).steps.sum()), repeats,
                        lambda: run_rwg(task, network, PriorSpec(), small, backend))
 
 
-def vector_rate(task, network, make, num_envs, steps, repeats) -> float:
-    """Steps/s of a vector env of ``num_envs`` driven by num_envs/16 policies × 16 envs for ``steps`` steps."""
+def vector_rate(task, network, make, num_envs, steps, repeats) -> tuple[float, float]:
+    """Steps/s (and CPU-µs/step) of a vector env of ``num_envs`` driven by num_envs/16 policies × 16 envs for
+    ``steps`` steps."""
     env = make(num_envs)
     width = 16
     policies = sample_policies(network, PriorSpec(), task.observation_size, task.action_size, 0,
@@ -100,8 +107,9 @@ def vector_rate(task, network, make, num_envs, steps, repeats) -> float:
         env.close()
 
 
-def policy_rate(task, network, policies, episodes, repeats) -> float:
-    """Rows/s of the forward pass alone on the kernel backend's batch: the policy's bound."""
+def policy_rate(task, network, policies, episodes, repeats) -> tuple[float, float]:
+    """Rows/s (and CPU-µs per row) of the forward pass alone on the kernel backend's batch: the policy's bound, and
+    the kernel backend's floor in :data:`floors.FLOORS`."""
     batch = sample_policies(network, PriorSpec(), task.observation_size, task.action_size, 0, np.arange(policies))
     x = torch.from_numpy(np.random.default_rng(0).normal(0.0, 0.1, (policies, episodes, task.observation_size)))
 
@@ -247,16 +255,17 @@ def main() -> None:
         task = GymTask(env_id)
         for name in args.networks:
             network = NETWORKS[name]
-            kernel = rwg_rate(task, network, "kernel", args.policies, args.episodes, args.repeats)
-            bound = policy_rate(task, network, args.policies, args.episodes, args.repeats)
-            gym = rwg_rate(task, network, "gym", args.gym_policies, args.gym_policies, args.repeats)
-            vec = vector_rate(task, network, lambda n, e=env_id: gymnasium.make_vec(e, num_envs=n),
-                              args.num_envs, args.vector_steps, args.repeats)
+            kernel, kernel_cpu = rwg_rate(task, network, "kernel", args.policies, args.episodes, args.repeats)
+            bound, bound_cpu = policy_rate(task, network, args.policies, args.episodes, args.repeats)
+            gym, _ = rwg_rate(task, network, "gym", args.gym_policies, args.gym_policies, args.repeats)
+            vec, _ = vector_rate(task, network, lambda n, e=env_id: gymnasium.make_vec(e, num_envs=n),
+                                 args.num_envs, args.vector_steps, args.repeats)
             pooled = envpool_maker(env_id)  # envpool has gymnasium's ids only (not taskcomplexity/NoisyCartPole)
             pool = vector_rate(task, network, pooled, args.num_envs, args.vector_steps,
-                               args.repeats) if pooled is not None else float("nan")
+                               args.repeats)[0] if pooled is not None else float("nan")
             print(f"{env_id:<26}{name:<11}{kernel:>11,.0f}{bound:>11,.0f}{gym:>10,.0f}{kernel / gym:>7.1f}"
                   f"{vec:>10,.0f}{kernel / vec:>7.1f}{pool:>10,.0f}{kernel / pool:>7.1f}", flush=True)
+            floors.report("kernel", "classic-control", f"{env_id}/{name}", kernel_cpu / bound_cpu)
     if args.paths_repeats:
         compare_paths(args.paths_policies, args.paths_repeats)
 

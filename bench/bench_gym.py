@@ -21,10 +21,16 @@ Per env, the CPU-µs (this process's threads and its worker processes) and wall-
   ``workers=1`` (in this process) and ``workers=`` the usable cores (their CPU counted too), and both net of env
   setup (the CPU of ``task.make_env()`` times the environments each process makes).
 
+Then the ``vector`` backend on a researcher's NumPy-vectorised env (``vector_pendulum``: ``tests/vector_pendulum.py``,
+gymnasium's Pendulum K at a time) against its floor: the vector env's own ``step()`` on random actions over as many
+environments as one process keeps in flight.
+
 ×floor is CPU-µs/step over the floor's. The goal the issue sets: the all-cores run net of env setup within 1.3× of
 the floor, with every core busy (CPU-s / wall-s ≥ 90 % of the usable cores); a printed fact, never an exit status.
 The rows between floor and rwg split the distance into its parts. Figures are medians over the repeats, the paths
 interleaved in each repeat; the machine may be shared (CPU-µs are disturbed less than wall-µs by other processes).
+Per env, a ``floor:`` line (``bench/floors.py``) gives the backend's ×floor and cores busy on the CPU path this runs on
+(``bench/run.py`` runs this script again on the AVX2 path).
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import floors
 import gymnasium
 import numpy as np
 from bench_mujoco import SETTLE, Row, Timing, cpu_line, setup_seconds, timed
@@ -219,12 +226,76 @@ def bench_env(name: str, env_id: str, kwargs: dict, args: argparse.Namespace, ne
     print(f"goal (rwg within {GOAL_RATIO}× of the floor per step, all {cores} cores busy), on the workers={cores} run "
           f"net of env setup: CPU ×floor {ratio:.2f} ({'≤' if fast else '>'} {GOAL_RATIO}), {busy:.2f} of {cores} "
           f"cores busy ({'≥' if full else '<'} {BUSY:.0%}): {'met' if fast and full else 'not met'}", flush=True)
+    floors.report("gym", "user-env", name, ratio, busy / cores)
     return {"env": name, "floor": floor, "rows": [row for _, row, _ in rows], "met": fast and full}
+
+
+def bench_vector(args: argparse.Namespace, network, cores: int) -> None:
+    """The ``vector`` backend on a researcher's NumPy-vectorised env (``tests/vector_pendulum.py``: gymnasium's
+    Pendulum, K at a time) against the vector env's own ``step()`` on random actions, K environments as one process
+    keeps in flight; prints its table and its floor line."""
+    from taskcomplexity.policies.mlp import PriorSpec
+    from taskcomplexity.rwg import RWGSettings, chunks, run_rwg
+    from taskcomplexity.rwg.gym_backend import slots_per_policy
+    from taskcomplexity.tasks.gym_task import GymTask
+    from taskcomplexity.tasks.vectorised import make_vector
+
+    sys.path.insert(0, str(ROOT / "tests"))
+    task = GymTask("vector_pendulum:VectorPendulum-v0").validate()
+    prior = PriorSpec()
+
+    def settings(workers: int) -> RWGSettings:
+        return RWGSettings(policies=args.policies, episodes=args.episodes, seed=args.seed, workers=workers)
+
+    ranges = chunks(task, network, settings(cores), "vector")
+    first = ranges[0][1] - ranges[0][0]
+    in_flight = first * slots_per_policy(first, args.episodes)
+    processes = max(1, min(cores, len(ranges)))
+    env = make_vector(task, in_flight)
+    space = task.action_space
+    calls = max(1, args.steps // in_flight)
+    actions = np.random.default_rng(args.seed).uniform(space.low, space.high, (calls, in_flight, *space.shape))
+    actions = actions.astype(space.dtype)
+
+    def floor_loop() -> int:
+        env.reset(seed=[args.seed + i for i in range(in_flight)])
+        for action in actions:
+            env.step(action)
+        return calls * in_flight
+
+    def rwg(workers: int) -> int:
+        return int(run_rwg(task, network, prior, settings(workers), "vector").steps.sum())
+
+    floor_loop()
+    run_rwg(task, network, prior, RWGSettings(policies=2, episodes=2, seed=args.seed, workers=1), "vector")  # warm
+    runs: dict[str, list[Timing]] = {key: [] for key in ("floor", "1", "W")}
+    for _ in range(args.repeats):
+        runs["floor"].append(timed(floor_loop))
+        runs["1"].append(timed(lambda: rwg(1), SETTLE))
+        runs["W"].append(timed(lambda: rwg(cores), SETTLE))
+    env.close()
+    floor = Row.of(runs["floor"])
+    rows = [(f"floor: vector env step(), {in_flight} envs", floor, 1),
+            ("rwg vector backend, workers=1", Row.of(runs["1"]), 1),
+            (f"rwg vector backend, workers={cores}", Row.of(runs["W"]), processes)]
+    print(f"\nvector_pendulum ({task.env_id}, the vector backend): observation {task.observation_size}, action "
+          f"{task.action_size}, episodes ≤ {task.max_steps} steps; rwg: N = {args.policies} × M = {args.episodes}, "
+          f"{len(ranges)} chunks of ≤ {first} policies, {in_flight} envs per vector env; medians of {args.repeats}")
+    head = (f"{'path':<38}{'steps':>9}{'CPU-µs/step':>13}{'×floor':>8}{'wall-µs/step':>14}{'CPU-s/wall-s':>14}"
+            f"{'processes':>11}")
+    print(head)
+    print("-" * len(head))
+    for label, row, procs in rows:
+        print(f"{label:<38}{row.steps:>9,}{row.cpu_us:>13.2f}{row.cpu_us / floor.cpu_us:>8.2f}{row.wall_us:>14.2f}"
+              f"{row.busy:>14.2f}{procs:>11}")
+    floors.report("vector", "user-env", "vector_pendulum", rows[2][1].cpu_us / floor.cpu_us, rows[2][1].busy / cores)
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--envs", nargs="+", default=["point_mass", "reach1d"], choices=["point_mass", "reach1d"])
+    parser.add_argument("--envs", nargs="+", default=["point_mass", "reach1d", "vector_pendulum"],
+                        choices=["point_mass", "reach1d", "vector_pendulum"],
+                        help="vector_pendulum: tests/vector_pendulum.py on the vector backend")
     parser.add_argument("--steps", type=int, default=20000, help="environment steps of the floor loops")
     parser.add_argument("--policies", type=int, default=64, help="N of the rwg runs")
     parser.add_argument("--episodes", type=int, default=32, help="M of the rwg runs")
@@ -247,6 +318,8 @@ def main() -> int:
     envs = register_envs()
     started = time.perf_counter()
     results = [bench_env(name, *envs[name], args, network, cores) for name in args.envs if name in envs]
+    if "vector_pendulum" in args.envs:
+        bench_vector(args, network, cores)
     print(f"\nsummary ({time.perf_counter() - started:.0f} s): CPU-µs/step of the floor; ×floor of the other paths; "
           f"busy = CPU-s/wall-s of the workers={cores} run")
     head = (f"{'env':<12}{'floor':>8}{'K envs':>8}{'fwd':>7}{'rwg×1':>7}{'rwg×' + str(cores):>7}{'net×1':>7}"

@@ -26,6 +26,8 @@ the same functions on 256 contiguous environments in a tight loop (no packing, n
 contact model has no floor here (its work depends on how many physics steps come near the block).
 Where a part is above 1.5× its floor the bench says why; for the forward pass it times each layer alone (on a
 policy's first observations, so that the output's tanh sees realistic values) beside matmul at that layer's shape.
+Per contact-free task a ``floor:`` line (``bench/floors.py``) gives the batched backend's ×floor: ``real`` over the sum
+of the three floors, on the CPU path this runs on (``bench/run.py`` runs this script again on the AVX2 path).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ import argparse
 import statistics
 import time
 
+import floors as bench_floors
 import numba
 import numpy as np
 import torch
@@ -356,6 +359,9 @@ def main() -> None:
             if name in floor:
                 ratios.append(f"{name} {value:.0f}/{floor[name]:.0f} = {value / floor[name]:.2f}×")
         print(f"{'':<26}measured/floor: " + ", ".join(ratios))
+        if task.arm.obstacle is None:  # the contact model has no floor
+            bench_floors.report("batched", "reaching-arms", f"{arm}-{reward}",
+                                real / (floor["forward"] + floor["physics"] + floor["obs/reward"]))
         if parts[1] > 1.5 * floor["forward"]:
             share = [layer["macs"] / layer["products"] * 1e9 / layer["gemm"] for layer in floor["layers"]]
             layers = ", ".join(

@@ -43,7 +43,9 @@ The goal the issue sets: the RWG path within 1.3× of the bare simulator per ste
 (envpool when installed, else the gym backend's all-cores run), net of its setup; that is a printed fact, never an
 exit status. Figures are medians over the repeats (the paths interleaved in each repeat); a first small run of each
 path is not timed. The machine may be shared: CPU-µs are disturbed less by other processes than wall-µs, and CPU-s
-/ wall-s below 1 per process means this run waited for a core.
+/ wall-s below 1 per process means this run waited for a core. Per task, ``floor:`` lines (``bench/floors.py``) give
+the envpool backend's and the gym backend's ×floor (net of their setup) and cores busy on the CPU path this runs on
+(``bench/run.py`` runs this script again on the AVX2 path).
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import floors
 import numpy as np
 
 from taskcomplexity.cores import usable_cores
@@ -317,6 +320,9 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
     print(f"goal (rwg within {GOAL_RATIO}× of the floor per step, all {cores} cores busy), on {judged}: "
           f"CPU ×floor {ratio:.2f} ({'≤' if fast else '>'} {GOAL_RATIO}), {busy:.2f} of {cores} "
           f"cores busy ({'≥' if full else '<'} {BUSY:.0%}): {'met' if fast and full else 'not met'}", flush=True)
+    floors.report("gym", "mujoco", env_id, rows[6][1].cpu_us / floor.cpu_us, rows[4][1].busy / cores)
+    if pool:
+        floors.report("envpool", "mujoco", env_id, rows[8][1].cpu_us / floor.cpu_us, rows[7][1].busy / cores)
     return {"task": env_id, "floor": floor, "rows": [row for _, row, _ in rows], "met": fast and full}
 
 

@@ -18,6 +18,11 @@ Prints
   with its contact model (``rwg.contacts=model``); the cost of the exact alternative (hand-overs to
   PyBullet) is measured on a small run and projected.
 
+Then the pybullet backend against its floor (``--floors-only``: that alone): bare ``stepSimulation`` × substeps on
+the same PyBullet world with random torques, CPU-µs per environment step, and a ``floor:`` line per task
+(``bench/floors.py``) on the CPU path this runs on (``bench/run.py`` runs ``--floors-only`` again on the AVX2 path).
+The batched backend's floor line comes from ``bench/bench_kernel_split.py``.
+
 Medians of repeats, the two sides of a ratio interleaved; the machine may be shared, so compare
 ratios (and the CPU-time ratio, which other processes disturb less) rather than absolute rates.
 """
@@ -31,6 +36,7 @@ import subprocess
 import sys
 import time
 
+import floors
 import numpy as np
 
 from taskcomplexity.cli import CONF_DIR
@@ -107,6 +113,57 @@ def hand_over_cost(policies, episodes):
     return per_episode * policies * episodes, chunk.handoffs / chunk.returns.size
 
 
+def pybullet_floor(env, torques: np.ndarray, max_steps: int) -> int:
+    """Bare ``stepSimulation`` × substeps per row of ``torques`` (N·m) on the PyBullet reference's world ``env``, the
+    torque set as the env sets it; ``reset()`` every ``max_steps`` rows (an episode's length at most)."""
+    client, arm, joints, control = env.client, env.arm_id, env._joints, env._torque_control
+    simulate, substeps = client.stepSimulation, env.task.arm.substeps
+    for i, torque in enumerate(torques):
+        if i % max_steps == 0:
+            env.reset(seed=i)
+        client.setJointMotorControlArray(arm, joints, control, forces=list(torque))
+        for _ in range(substeps):
+            simulate()
+    return len(torques)
+
+
+def pybullet_against_floor(arm, reward, policies, episodes, repeats):
+    """The pybullet backend's CPU per step (``run_rwg``, one process) and its floor's (:func:`pybullet_floor` on as
+    many steps), medians of ``repeats`` interleaved runs: (backend CPU-µs/step, floor CPU-µs/step, steps)."""
+    from taskcomplexity.tasks.pybullet_env import ReachingEnv
+
+    task = make_task(arm, reward)
+    settings = RWGSettings(policies=policies, episodes=episodes, seed=1)
+    run_rwg(task, NetworkSpec(), PriorSpec(), RWGSettings(policies=2, episodes=2, seed=1), "pybullet")  # warm
+    env = ReachingEnv(task=task)
+    scale = np.asarray(task.arm.torque_scale, dtype=np.float64)
+    cpu: dict[str, list[float]] = {"backend": [], "floor": []}
+    try:
+        for _ in range(repeats):
+            started = time.process_time()
+            steps = int(run_rwg(task, NetworkSpec(), PriorSpec(), settings, "pybullet").steps.sum())
+            cpu["backend"].append((time.process_time() - started) / steps * 1e6)
+            torques = np.random.default_rng(0).uniform(-scale, scale, (steps, task.arm.dof))
+            started = time.process_time()
+            pybullet_floor(env, torques, task.max_steps)
+            cpu["floor"].append((time.process_time() - started) / steps * 1e6)
+    finally:
+        env.close()
+    return statistics.median(cpu["backend"]), statistics.median(cpu["floor"]), steps
+
+
+def print_pybullet_floors(policies, episodes, repeats):
+    """The pybullet backend against bare ``stepSimulation`` on the two throughput tasks, with their floor lines."""
+    print(f"pybullet backend against its floor, bare stepSimulation × substeps (random torques, same world), "
+          f"N = {policies} × M = {episodes}, one process; CPU-µs per environment step, median of {repeats}")
+    print(f"{'task':<26}{'steps':>9}{'pybullet':>11}{'floor':>9}{'×floor':>8}")
+    for arm, reward in (("one_link_1m0", "dense"), ("two_link", "sparse")):
+        backend_us, floor_us, steps = pybullet_against_floor(arm, reward, policies, episodes, repeats)
+        print(f"{arm + '-' + reward:<26}{steps:>9,}{backend_us:>11.1f}{floor_us:>9.1f}{backend_us / floor_us:>8.2f}",
+              flush=True)
+        floors.report("pybullet", "reaching-arms", f"{arm}-{reward}", backend_us / floor_us)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeats", type=int, default=3)
@@ -115,7 +172,13 @@ def main() -> None:
     parser.add_argument("--one-task", action="store_true", help="only two_link-dense at full scale")
     parser.add_argument("--fused-only", action="store_true", help="only the fused rollout vs step by step")
     parser.add_argument("--chunk-policies", type=int, default=200, help="policies of the fused/step-by-step chunk")
+    parser.add_argument("--floors-only", action="store_true",
+                        help="only the pybullet backend against its floor (what bench/run.py runs on the AVX2 path)")
+    parser.add_argument("--pybullet-policies", type=int, default=8, help="N = M of the pybullet backend's floor run")
     args = parser.parse_args()
+    if args.floors_only:
+        print_pybullet_floors(args.pybullet_policies, args.pybullet_policies, args.repeats)
+        return
 
     size = f"{args.chunk_policies} policies × {args.episodes} episodes"
     print(f"Batched backend: fused rollout against step by step, one chunk of {size} (mlp32, N(0, I); "
@@ -142,7 +205,8 @@ def main() -> None:
         fast, _ = throughput(task, RWGSettings(policies=400, episodes=100, seed=1), "batched", args.repeats)
         ratios.append(fast / slow)
         print(f"{task.task_id:<26}{slow:>12,.0f}{fast:>14,.0f}{fast / slow:>9.0f}×")
-    print(f"median ratio batched / pybullet: {statistics.median(ratios):.0f}×  (target ≥ 300×)")
+    print(f"median ratio batched / pybullet: {statistics.median(ratios):.0f}×  (target ≥ 300×)\n")
+    print_pybullet_floors(args.pybullet_policies, args.pybullet_policies, args.repeats)
 
     tasks = (("two_link", "dense"),) if args.one_task else [
         (entry.selection["arm"], entry.selection["reward"]) for entry in load_study_file(PAPER_STUDY).tasks]

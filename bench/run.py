@@ -5,6 +5,7 @@
     python bench/run.py --only rwg sac           # bench_rwg.py and bench_sac.py
     python bench/run.py --only rwg -- --one-task # extra arguments after -- go to every script run
     python bench/run.py --no-page                # print only
+    python bench/run.py --native-only            # no second run on the AVX2 path
 
 Each script's output goes to the console as it comes and, verbatim, into the page ``docs/benchmarks/results.md``
 (``--page``), under a header that says where and when it was measured: the machine (CPU model, its vector
@@ -13,6 +14,12 @@ it), the Python, torch, NumPy and numba versions, and the command. Each script g
 CPU seconds (its process and the processes it waited for) and exit status. The page holds only the last run:
 a run of some scripts, or at the quick budgets, says so at its top. The scripts never fail on a timing; this
 exits with status 1 when one of them failed.
+
+The scripts of :data:`AVX2_RUNS` measure RWG's backends against their floors and print a ``floor:`` line per
+measurement (``bench/floors.py``); each runs again right after its native run, on the AVX2 path of numba, NumPy, torch
+and the BLAS (``tests/cpu_paths.py``; ``--native-only`` skips it). At the end (and on the page, before the scripts'
+output) one table gathers the lines of this run: per backend and task family, its floor, ×floor on each CPU path and
+the cores busy; a figure this run did not measure is shown as missing.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ import resource
 import shlex
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,6 +63,16 @@ QUICK: dict[str, list[str]] = {
     "bench_study": ["--policies", "200", "--episodes", "20", "--resamples", "20"],
 }
 """Each script's small budget for ``--quick``: the same measurements on less work (their ratios are noisier)."""
+
+AVX2_RUNS: dict[str, list[str]] = {
+    "bench_classic": ["--paths-repeats", "0"],  # the classic-control study already runs on both paths inside it
+    "bench_kernel_split": [],
+    "bench_rwg": ["--floors-only"],
+    "bench_mujoco": [],
+    "bench_gym": [],
+}
+"""The scripts that print floor lines, run a second time on the AVX2 path, with these arguments after their own
+(the part of the script that measures the floors)."""
 
 VECTOR_FLAGS = ("avx512f", "avx512dq", "avx512bw", "avx512vl", "avx512_vnni", "avx512_bf16", "avx512_fp16",
                 "amx_tile", "avx2", "fma", "avx", "f16c", "sse4_2", "asimd", "sve", "sve2")
@@ -100,13 +118,15 @@ def as_displayed(raw: str) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def run_script(path: Path, arguments: list[str]) -> Result:
-    """Run one script, echoing its output, and time it (wall; CPU of it and the processes it waited for)."""
+def run_script(path: Path, arguments: list[str], environment: dict[str, str] | None = None,
+               name: str | None = None) -> Result:
+    """Run one script, echoing its output, and time it (wall; CPU of it and the processes it waited for);
+    ``environment``: variables added to this process's (the AVX2 path's), ``name``: the result's, if not the file's."""
     command = [sys.executable, str(path), *arguments]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                               env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                               env={**os.environ, **(environment or {}), "PYTHONUNBUFFERED": "1"})
     chunks = []
     assert process.stdout is not None
     for chunk in iter(lambda: process.stdout.read1(4096), b""):
@@ -118,7 +138,18 @@ def run_script(path: Path, arguments: list[str]) -> Result:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     shown = [f"bench/{path.name}", *arguments]
-    return Result(path.name, shown, as_displayed(b"".join(chunks).decode("utf-8", "replace")), wall, cpu, status)
+    if environment:
+        shown = ["tests/cpu_paths.py", "--", "python", *shown]
+    return Result(name or path.name, shown, as_displayed(b"".join(chunks).decode("utf-8", "replace")), wall, cpu,
+                  status)
+
+
+def avx2_environment(numba_cache: str) -> dict[str, str]:
+    """``tests/cpu_paths.py``'s AVX2 path (numba's kernels for it cached in ``numba_cache``)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from cpu_paths import avx2_environment as environment
+
+    return environment(numba_cache)
 
 
 def git(*arguments: str) -> str:
@@ -167,6 +198,18 @@ def fence(text: str) -> str:
     return "`" * max(3, longest + 1)
 
 
+def anchor(heading: str) -> str:
+    """The id MkDocs gives a heading (its ``toc`` extension's default slug)."""
+    return re.sub(r"[-\s]+", "-", re.sub(r"[^\w\s-]", "", heading).strip().lower())
+
+
+def floor_summary(results: list[Result]) -> str:
+    """The table of every floor line the scripts printed (``bench/floors.py``), with its heading."""
+    from floors import HEADING, collect, summary
+
+    return f"{HEADING}\n\n{summary(collect([r.output for r in results]))}"
+
+
 def page(header: dict[str, str], command: str, selection: str, results: list[Result], total: float) -> str:
     """The Markdown of the results page."""
     rows = "\n".join(f"| {key} | {value} |" for key, value in header.items())
@@ -186,7 +229,11 @@ def page(header: dict[str, str], command: str, selection: str, results: list[Res
         "",
         "| script | wall s | CPU s | exit status |",
         "|---|---:|---:|---:|",
-        *(f"| [{r.name}](#{r.name.replace('.', '')}) | {r.wall:.1f} | {r.cpu:.1f} | {r.status} |" for r in results),
+        *(f"| [{r.name}](#{anchor(r.name)}) | {r.wall:.1f} | {r.cpu:.1f} | {r.status} |" for r in results),
+        "",
+        "## Each backend against its floor",
+        "",
+        floor_summary(results),
     ]
     for r in results:
         marks = fence(r.output)
@@ -211,6 +258,8 @@ def parse_arguments(argv: list[str] | None = None) -> tuple[argparse.Namespace, 
     parser.add_argument("--quick", action="store_true", help="every script at its small budget (QUICK)")
     parser.add_argument("--page", type=Path, default=PAGE, help=f"the page to write (default {PAGE.relative_to(ROOT)})")
     parser.add_argument("--no-page", action="store_true", help="print only, write no page")
+    parser.add_argument("--native-only", action="store_true",
+                        help="run no script again on the AVX2 path (AVX2_RUNS)")
     argv = sys.argv[1:] if argv is None else argv
     extra = argv[argv.index("--") + 1:] if "--" in argv else []
     return parser.parse_args(argv[:argv.index("--")] if "--" in argv else argv), extra
@@ -223,13 +272,20 @@ def main(argv: list[str] | None = None) -> int:
     invoked = shlex.join(["bench/run.py", *(sys.argv[1:] if argv is None else argv)])
     results = []
     started = time.perf_counter()
-    for path in chosen:
-        arguments = [*(QUICK.get(path.stem, []) if args.quick else []), *extra]
-        print(f"\n=== {shlex.join([path.name, *arguments])} ===", flush=True)
-        results.append(run_script(path, arguments))
-        print(f"=== {path.name}: {results[-1].wall:.1f} s wall, {results[-1].cpu:.1f} CPU-seconds, "
-              f"exit status {results[-1].status} ===", flush=True)
+    with tempfile.TemporaryDirectory(prefix="bench-numba-avx2-") as numba_cache:  # one compilation per run
+        for path in chosen:
+            arguments = [*(QUICK.get(path.stem, []) if args.quick else []), *extra]
+            runs = [(path.name, arguments, None)]
+            if path.stem in AVX2_RUNS and not args.native_only:
+                runs.append((f"{path.name} on the AVX2 path", [*arguments, *AVX2_RUNS[path.stem]],
+                             avx2_environment(numba_cache)))
+            for name, these, environment in runs:
+                print(f"\n=== {name}: {shlex.join(these)} ===", flush=True)
+                results.append(run_script(path, these, environment, name))
+                print(f"=== {name}: {results[-1].wall:.1f} s wall, {results[-1].cpu:.1f} CPU-seconds, "
+                      f"exit status {results[-1].status} ===", flush=True)
     total = time.perf_counter() - started
+    print(f"\n{floor_summary(results)}", flush=True)
     everything = len(chosen) == len(scripts([]))
     selection = "Every script ran" if everything else f"Only {', '.join(r.name for r in results)} ran"
     if args.quick:

@@ -385,6 +385,7 @@ def test_the_path_reader_finds_what_is_written(tmp_path):
 # --- tests/ mirrors src/taskcomplexity/ ------------------------------------------------------------------------------
 
 SUPPORT_FOLDERS: dict[str, str] = {
+    "bench": "the benchmarks' summary (bench/floors.py, bench/run.py) on canned script output",
     "cluster": "the cluster path on the local SLURM (make test-cluster): the launcher, local_slurm.sh, the jobs",
     "golden": "each stage's golden run at its version (golden_runs.py) and the values recorded",
     "recipes": "the how-to pages (docs/how-to/) followed on a scratch copy of the repository",
