@@ -405,3 +405,27 @@ def test_with_a_b_off_the_auto_rule_the_next_budget_says_nothing_of_auto():
 
     text = " ".join(resolve_sentences(sampling_data(bins=100_000)))
     assert "B = 100,000 held" in text and "metrics.bins=auto" not in text
+
+
+def test_a_run_at_the_recommended_budget_re_checks_the_relations_it_sized():
+    from taskcomplexity.report.budget import Recommendation, next_budget, recheck_sentences
+
+    before = sampling_data(bins=1000)
+    record = next_budget(before).record()
+    assert [(r["metric"], r["by"], r["size"]) for r in record["sized"]] == [
+        ("pic", "policies", 5000), ("poic", "policies", 8000), ("pic", "episodes", 800)]
+    after = sampling_data(bins=1000, policies=8000, episodes=800)
+    after.verdict["verdict"]["outcome"] = ["agree", "not significant", "contradict", "agree", "uninformative"]
+    after.name = lambda task: task.upper()
+    earlier = [Recommendation("2026-01-02 10:00", record)]
+    first, still, median = recheck_sentences(after, earlier)
+    assert first == ("This run reaches the next budget that the report of 2026-01-02 10:00 (N = 1,000 × M = 50) "
+                     "recommended, N = 8\u2009000 × M = 800, B = 1,000 held: of the 2 relations it sized by N, now "
+                     "1 agree, 1 not significant; of the 1 relation it sized by M, now 1 contradict.")
+    assert still == "Still open: POIC on T0 easier than U0 (not significant)."
+    assert median.startswith("The N it gave a relation is a median projection")
+    # a run short of the budget, or at another B, re-checks nothing; a newer recommendation it reaches wins
+    assert recheck_sentences(sampling_data(bins=1000, policies=5000, episodes=800), earlier) == []
+    assert recheck_sentences(sampling_data(bins=500, policies=8000, episodes=800), earlier) == []
+    newer = Recommendation("2026-01-03 10:00", {**record, "sized": record["sized"][:1], "policies": 5000})
+    assert "of the 1 relation it sized by N, now 1 agree." in recheck_sentences(after, [newer, *earlier])[0]

@@ -18,6 +18,7 @@ verdict table gives each relation's own size (:func:`to_resolve`), so the two re
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,6 +61,7 @@ class NextBudget:
     by_episodes: dict[str, int] = field(default_factory=dict)
     unsized: dict[str, dict[str, int]] = field(default_factory=dict)
     auto: bool = False
+    sized: tuple[SizedRelation, ...] = ()
 
     @property
     def changes(self) -> bool:
@@ -70,6 +72,25 @@ class NextBudget:
         """The command-line overrides that run it: "study.policies=5500 study.episodes=200 metrics.bins=400"."""
         parts = [f"study.policies={self.policies}", f"study.episodes={self.episodes}"]
         return " ".join(parts + ([f"metrics.bins={self.bins}"] if self.bins is not None else []))
+
+    def record(self) -> dict:
+        """What a report's ``summary.json`` keeps of it, for the run at this budget to re-check
+        (:func:`recheck_sentences`)."""
+        return {"policies": self.policies, "episodes": self.episodes, "bins": self.bins, "now": list(self.now),
+                "sized": [{"metric": r.metric, "easier": r.easier, "harder": r.harder, "by": r.by, "size": r.size}
+                          for r in self.sized]}
+
+
+@dataclass(frozen=True)
+class SizedRelation:
+    """One open relation of a primary metric that the next budget sizes: ``by`` "policies" (N′, at this M and B) or
+    "episodes" (M′, at this B), to ``size`` (rounded up as shown)."""
+
+    metric: str
+    easier: str
+    harder: str
+    by: str
+    size: int
 
 
 def to_resolve(data: StudyData) -> pd.Series:
@@ -104,17 +125,20 @@ def next_budget(data: StudyData) -> NextBudget | None:
         return None
     needs = {"policies": [policies], "episodes": [episodes]}
     counts: dict[str, dict[str, int]] = {kind: {} for kind in ("policies", "episodes", *UNSIZED)}
+    sized = []
     for _, row in open_.iterrows():
         kind, size = _size(row, registry, episodes)
         if kind in needs:
             needs[kind].append(size)
+            sized.append(SizedRelation(str(row["metric"]), str(row["easier"]), str(row["harder"]), kind,
+                                       int(_round_up(size))))
         label = registry.label(row["metric"])
         counts[kind][label] = counts[kind].get(label, 0) + 1
     bins = _bins(data) if any(m.information is not None and m.information.binned for m in primary) else None
     return NextBudget(policies=int(_round_up(max(needs["policies"]))), episodes=int(_round_up(max(needs["episodes"]))),
                       bins=bins, now=scale, by_policies=counts["policies"], by_episodes=counts["episodes"],
                       unsized={why: counts[why] for why in UNSIZED if counts[why]},
-                      auto=bins is not None and bins == auto_bins(*scale))
+                      auto=bins is not None and bins == auto_bins(*scale), sized=tuple(sized))
 
 
 def budget_sentences(data: StudyData) -> list[str]:
@@ -148,6 +172,74 @@ def budget_sentences(data: StudyData) -> list[str]:
         sentences.append(f"{lead}: " + "; ".join(f"{_counted(counts)} ({UNSIZED[why]})"
                                                    for why, counts in budget.unsized.items()) + ".")
     return sentences
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """A next budget an earlier report of the same study recommended: when that report was built (as the page prints
+    it), and its :meth:`NextBudget.record`."""
+
+    built: str
+    record: dict
+
+
+def recheck_sentences(data: StudyData, earlier: Sequence[Recommendation]) -> list[str]:
+    """The re-check of a recommendation: when this run reaches the next budget an earlier report of the study
+    recommended (N and M at least N′ and M′, B the one it held), what became of each relation it sized.
+
+    ``earlier`` is newest first; the newest one this run reaches is re-checked. Empty when this run reaches none.
+    The sentences count the outcomes now of the relations sized by N′ and by M′ (a relation this run no longer
+    judges is counted as missing), name those still open, and say that N′ is a median projection, so that about
+    half of the relations sized by N′ alone resolve there.
+    """
+    scale = _scale(data)
+    if scale is None:
+        return []
+    bins = _bins(data)
+    chosen = next((r for r in earlier if _reaches(r.record, scale, bins)), None)
+    if chosen is None:
+        return []
+    record, verdict = chosen.record, data.verdict["verdict"]
+    outcomes = {(str(r.metric), str(r.easier), str(r.harder)): str(r.outcome) for r in verdict.itertuples()}
+    now = {by: {} for by in ("policies", "episodes")}
+    still_open = []
+    for relation in record["sized"]:
+        key = (relation["metric"], relation["easier"], relation["harder"])
+        outcome = outcomes.get(key, "missing")
+        now[relation["by"]][outcome] = now[relation["by"]].get(outcome, 0) + 1
+        if outcome in OPEN:
+            still_open.append(f"{data.registry.label(key[0])} on {data.name(key[1])} easier than "
+                              f"{data.name(key[2])} ({outcome})")
+    n0, m0 = record["now"]
+    held = f", B = {record['bins']:,} held" if record.get("bins") is not None else ""
+    parts = [f"of the {plural(sum(counts.values()), 'relation')} it sized by {'N' if by == 'policies' else 'M'}, "
+             f"now {_counted_outcomes(counts)}" for by, counts in now.items() if counts]
+    sentences = [f"This run reaches the next budget that the report of {chosen.built} (N = {n0:,} × M = {m0:,}) "
+                 f"recommended, N = {shown_size(record['policies'])} × M = {shown_size(record['episodes'])}{held}: "
+                 f"{'; '.join(parts)}."]
+    if still_open:
+        shown = still_open[:3] + ([f"{len(still_open) - 3} more"] if len(still_open) > 3 else [])
+        sentences.append(f"Still open: {and_list(shown)}.")
+    if now["policies"]:
+        sentences.append("The N it gave a relation is a median projection from one noisy t statistic: about half of "
+                         "the relations sized by N alone resolve there, the others need more.")
+    return sentences
+
+
+def _reaches(record: dict, scale: tuple[int, int], bins: int | None) -> bool:
+    """Whether a run at ``scale`` (N, M) and ``bins`` reaches a recommended budget (a :meth:`NextBudget.record`)."""
+    try:
+        wanted = (int(record["policies"]), int(record["episodes"]))
+        changed = wanted != tuple(record["now"])
+        same_bins = record.get("bins") is None or record["bins"] == bins
+        return changed and scale[0] >= wanted[0] and scale[1] >= wanted[1] and same_bins and bool(record["sized"])
+    except (KeyError, TypeError, ValueError):
+        return False
+
+
+def _counted_outcomes(counts: dict[str, int]) -> str:
+    """"2 agree, 1 not significant"."""
+    return ", ".join(f"{n} {outcome}" for outcome, n in sorted(counts.items(), key=lambda kv: -kv[1]))
 
 
 def _counted(counts: dict[str, int]) -> str:

@@ -28,13 +28,14 @@ from taskcomplexity.metrics.batches import SIGNIFICANCE_LEVEL
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY, Registry
 from taskcomplexity.report import sections
 from taskcomplexity.report.beyond import beyond_section
-from taskcomplexity.report.data import load_study_data
+from taskcomplexity.report.budget import next_budget
+from taskcomplexity.report.data import StudyData, load_study_data
 from taskcomplexity.report.format import and_list, joined, of_total, plural
 from taskcomplexity.report.headline import headline
 from taskcomplexity.report.html import Document, write_html
 from taskcomplexity.report.markdown import render_markdown
 from taskcomplexity.report.methods import methods
-from taskcomplexity.report.runs import write_summary
+from taskcomplexity.report.runs import earlier_recommendations, write_summary
 from taskcomplexity.report.writer import Writer
 from taskcomplexity.study_data import Study
 
@@ -159,10 +160,17 @@ def build_report(
     m = joined(int(v) for v in data.metrics["episodes"])
     subtitle = (f"{plural(len(data.tasks), 'task')}, N = {n} random policies × M = {m} episodes each; "
                 f"generated {dt.datetime.now().strftime('%Y-%m-%d %H:%M')}")
-    document = Document(title, subtitle, tuple(headline(data, alpha=alpha)), boxed,
+    earlier = earlier_recommendations(writer.out_dir)
+    document = Document(title, subtitle, tuple(headline(data, alpha=alpha, earlier=earlier)), boxed,
                         methods(data, sac_curves, alpha=alpha), tuple(page_sections), banner=scale_banner(data))
     (writer.out_dir / "report.md").write_text(render_markdown(document), encoding="utf-8")
     write_summary(writer.out_dir, title=title, headline=document.headline, tasks=len(data.tasks), policies=n,
                   episodes=m, bins=int(data.results[data.tasks[0]].metrics.manifest.get("config", {}).get("bins", 0)),
-                  sac=sac_curves is not None and not sac_curves.empty)
+                  sac=sac_curves is not None and not sac_curves.empty, next_budget=_recommended(data))
     return write_html(document, writer.out_dir / "index.html")
+
+
+def _recommended(data: StudyData) -> dict | None:
+    """The next budget the headline recommends, as ``summary.json`` keeps it (None when it recommends none)."""
+    budget = next_budget(data)
+    return budget.record() if budget is not None and budget.changes and budget.sized else None

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
-from taskcomplexity.report.budget import budget_sentences
+from taskcomplexity.report.budget import Recommendation, budget_sentences, recheck_sentences
 from taskcomplexity.report.data import StudyData
 from taskcomplexity.report.format import and_list, naming, num, of_total, plural, pvalue
 from taskcomplexity.report.groups import group_sentences
@@ -61,7 +61,7 @@ def information_sentences(data: StudyData) -> list[str]:
     return sentences
 
 
-def headline(data: StudyData, *, alpha: float) -> list[str]:
+def headline(data: StudyData, *, alpha: float, earlier: Sequence[Recommendation] = ()) -> list[str]:
     """Plain-text sentences; the first one or two are the headline.
 
     When a primary metric's verdicts rest on values without information (its permutation null, its
@@ -73,6 +73,9 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
         The study's artefacts (its verdict tables, registry and names).
     alpha : float
         The significance cut-off used (for the wording).
+    earlier : sequence of Recommendation, optional
+        The next budgets earlier reports of this study recommended, newest first: the one this run reaches is
+        re-checked (:func:`~taskcomplexity.report.budget.recheck_sentences`).
     """
     verdict, summary, registry = data.verdict["verdict"], data.verdict["summary"], data.registry
     grouped = group_sentences(data, alpha=alpha)
@@ -99,7 +102,7 @@ def headline(data: StudyData, *, alpha: float) -> list[str]:
         judged = int(first["relations"]) - int(first["undefined"])
         sentences.append(f"The empirical order of training ({registry.label(first['metric'])}) agrees with "
                          f"{int(first['agreements'])} of the {plural(judged, 'relation')} it could judge.")
-    sentences += resolve_sentences(data)
+    sentences += recheck_sentences(data, earlier) + resolve_sentences(data)
     sentences += replication_sentences(data) + reference_sentences(data)
     sentences += [survival_sentence(quantity, table) for quantity, table in survival_tables(data).items()]
     return sentences

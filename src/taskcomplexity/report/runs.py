@@ -24,6 +24,10 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from taskcomplexity.report.budget import Recommendation
 
 SUMMARY = "summary.json"
 """The report's own account of itself, in its directory: title, budget, headline."""
@@ -45,12 +49,14 @@ def run_directory(reports: Path, name: str, verdict_key: str, title: str) -> Pat
 
 
 def write_summary(out_dir: Path, *, title: str, headline: Sequence[str], tasks: int, policies: str, episodes: str,
-                  bins: int, sac: bool) -> None:
+                  bins: int, sac: bool, next_budget: dict | None = None) -> None:
     """Write the report's ``summary.json``: its title, the study's size (``tasks``; ``policies`` and ``episodes``
-    as printed, e.g. ``"1,000"`` or ``"100 and 1,000"``; ``bins``), whether it holds SAC curves, and its headline
-    sentences (plain text)."""
+    as printed, e.g. ``"1,000"`` or ``"100 and 1,000"``; ``bins``), whether it holds SAC curves, its headline
+    sentences (plain text) and the next budget it recommends with the relations that budget sizes
+    (:meth:`~taskcomplexity.report.budget.NextBudget.record`; None without one), which the run at that budget
+    re-checks."""
     summary = {"title": title, "tasks": tasks, "policies": policies, "episodes": episodes, "bins": bins, "sac": sac,
-               "headline": list(headline)}
+               "headline": list(headline), "next_budget": next_budget}
     (out_dir / SUMMARY).write_text(json.dumps(summary, indent=1), encoding="utf-8")
 
 
@@ -90,11 +96,11 @@ class KeptReport:
         return f"{s['tasks']} tasks, N = {s['policies']}, M = {s['episodes']}, B = {s['bins']:,}; {sac}"
 
 
-def kept_reports(reports: Path) -> list[KeptReport]:
-    """Every report under ``reports`` that has a ``run.json``, newest first (an unreadable record is skipped: a
-    report being written by another run, or a file edited by hand)."""
+def kept_reports(reports: Path, pattern: str = f"*/*/{RUN}") -> list[KeptReport]:
+    """Every report under ``reports`` that has a ``run.json`` (found by ``pattern``), newest first (an unreadable
+    record is skipped: a report being written by another run, or a file edited by hand)."""
     kept = []
-    for record in reports.glob(f"*/*/{RUN}"):
+    for record in reports.glob(pattern):
         try:
             run = json.loads(record.read_text(encoding="utf-8"))
             summary_file = record.parent / SUMMARY
@@ -104,6 +110,17 @@ def kept_reports(reports: Path) -> list[KeptReport]:
         except (OSError, ValueError, KeyError, TypeError):
             continue
     return sorted(kept, key=lambda r: r.built, reverse=True)
+
+
+def earlier_recommendations(out_dir: Path) -> list[Recommendation]:
+    """The next budgets that the other kept reports of the same run name (``out_dir``'s siblings) recommended,
+    newest first, as :class:`~taskcomplexity.report.budget.Recommendation` (a report without one is left out)."""
+    from taskcomplexity.report.budget import Recommendation
+
+    out_dir = Path(out_dir).resolve()
+    siblings = kept_reports(out_dir.parent, f"*/{RUN}") if out_dir.parent.is_dir() else []
+    return [Recommendation(r.built.strftime("%Y-%m-%d %H:%M"), r.summary["next_budget"]) for r in siblings
+            if r.directory.resolve() != out_dir and isinstance(r.summary.get("next_budget"), dict)]
 
 
 def write_index(reports: Path) -> Path:
