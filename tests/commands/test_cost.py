@@ -46,23 +46,30 @@ def test_a_bad_budget_is_refused_before_any_pilot(compose_config):
 
 def test_a_shard_is_set_against_the_cluster_launchers_time_limit(compose_config, monkeypatch):
     import taskcomplexity.commands.cost as cost
+    from taskcomplexity.study.plan import study_requests
 
     monkeypatch.setattr(cost, "job_start_cpu", lambda entry_id, typed: 1.0)
     cfg = compose_config("study=classic_control", "study.policies=64", "study.episodes=8", "rwg.shards=2")
+    # The tasks priced once, then set against each limit (a second pilot measures other CPU-s on a busy machine).
     # A job needs longest / 2 + 1 CPU-s, on 2 cores: a limit between 0.5 s (its start-up's wall time) and that
     # half is beyond it but met by more shards; below 0.5 s no number of shards fits.
-    longest = max(c.cpu_seconds for c in estimate(cfg, echo=lambda line: None))
+    costs = estimate(cfg, echo=lambda line: None)
+    longest = max(c.cpu_seconds for c in costs)
     between = (0.5 + (longest / 2 + 1.0) / 2) / 2
     for limit in (1e6, between, 0.4):  # seconds of the launcher's time limit, on 2 cores per job
-        monkeypatch.setattr(cost, "_launcher_limit", lambda cfg, limit=limit: (limit, 2))
         lines = []
-        longest = max(c.cpu_seconds for c in estimate(cfg, echo=lines.append))
+        cost.echo_jobs(costs, study_requests(cfg), 2, (limit, 2), lines.append)
         if limit > 1e3:
             assert lines[-1].endswith(f"on a job's 2 cores against the launcher's limit of {_hours(limit)}: within it")
         elif limit > 0.5:
             assert lines[-1].endswith(f"beyond it, use rwg.shards >= {math.ceil(longest / (2 * limit - 1.0))}")
         else:
             assert lines[-1].endswith("beyond it, raise hydra.launcher.timeout_min")
+    # estimate reads the launcher's limit and prints the same line
+    monkeypatch.setattr(cost, "_launcher_limit", lambda cfg: (1e6, 2))
+    lines = []
+    estimate(cfg, echo=lines.append)
+    assert lines[-1].endswith(f"on a job's 2 cores against the launcher's limit of {_hours(1e6)}: within it")
 
 
 def test_a_jobs_start_up_is_measured_by_starting_one():
