@@ -372,7 +372,7 @@ def _sac(runs: Runs) -> dict[str, Path]:
 
 @golden("occupancy", tolerance=ACTORS_TOLERANCE)
 def _occupancy(runs: Runs) -> dict[str, Path]:
-    from taskcomplexity.rl.snapshots import ACTORS_FILE
+    from taskcomplexity.rl.curves import ACTORS_FILE
     from taskcomplexity.stages.occupancy_stage import OccupancySettings, run_occupancy_stage
 
     settings = OccupancySettings(policies=4, episodes=1, pairs=20, resamples=10, batches=2)
@@ -383,7 +383,7 @@ def _occupancy(runs: Runs) -> dict[str, Path]:
 
 @golden("learning_path", tolerance=ACTORS_TOLERANCE)
 def _learning_path(runs: Runs) -> dict[str, Path]:
-    from taskcomplexity.rl.snapshots import ACTORS_FILE
+    from taskcomplexity.rl.curves import ACTORS_FILE
     from taskcomplexity.stages.learning_path_stage import LearningPathSettings, run_learning_path_stage
 
     settings = LearningPathSettings(policies=4, episodes=2, bins=4, batches=2)

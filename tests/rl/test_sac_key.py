@@ -50,7 +50,9 @@ def test_the_device_enters_the_key_only_off_the_cpu(monkeypatch):
     base = SACSettings(total_steps=2000)
     on_cpu = key(base)
     assert key(dataclasses.replace(base, device="cpu")) == on_cpu  # every CPU curve keeps its key
-    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)  # a machine with a GPU: auto is CUDA there
+    # a machine with a CUDA build of torch and a GPU: auto is CUDA there
+    monkeypatch.setattr("taskcomplexity.rl.settings.cpu_build_of_torch", lambda: False)
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
     assert key(base) != on_cpu
     assert key(dataclasses.replace(base, device="cuda")) == key(base)
     assert key(dataclasses.replace(base, device="cpu")) == on_cpu

@@ -177,3 +177,17 @@ def test_cuda_where_torch_sees_no_device_is_refused_in_one_line_and_auto_is_the_
         build(SACSettings, compose_config("sac.device=cuda").sac, "sac")
     assert "\n" not in str(err.value)
     assert resolve_device(build(SACSettings, compose_config().sac, "sac").device).type == "cpu"
+
+
+def test_a_cpu_build_of_torch_gives_auto_the_cpu_identity_without_importing_torch():
+    import subprocess
+    import sys
+
+    # a cached run's key is looked up by every study, SAC on or off: under the pinned CPU wheel (2.13.0+cpu) its
+    # device adds nothing to the identity, as the device torch resolves does, and torch stays unimported
+    assert torch.__version__.endswith("+cpu") and resolve_device("auto").type == "cpu"
+    probe = ("import sys; from taskcomplexity.rl.settings import SACSettings, cpu_build_of_torch, device_identity; "
+             "print(cpu_build_of_torch(), device_identity(SACSettings(device='auto')), "
+             "device_identity(SACSettings(device='cpu')), 'torch' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["True", "{}", "{}", "False"]

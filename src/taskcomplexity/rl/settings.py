@@ -208,9 +208,24 @@ def resolve_device(device: str, where: str = "sac"):
 
 
 def device_identity(settings: SACSettings) -> dict:
-    """What the device adds to a run's identity: nothing on the CPU, ``{"device": "cuda"}`` on a GPU."""
+    """What the device adds to a run's identity: nothing on the CPU, ``{"device": "cuda"}`` on a GPU.
+
+    ``auto`` under a CPU build of torch (its version's local label ``+cpu``, read from the installed package's
+    metadata) is the CPU without importing torch, so looking a cached run up costs no torch import."""
+    if settings.device == "cpu" or (settings.device == "auto" and cpu_build_of_torch()):
+        return {}
     device = resolve_device(settings.device)
     return {} if device.type == "cpu" else {"device": device.type}
+
+
+def cpu_build_of_torch() -> bool:
+    """Whether the installed torch is a CPU-only build (``2.13.0+cpu``), which never sees a CUDA device."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("torch").endswith("+cpu")
+    except PackageNotFoundError:
+        return False
 
 
 def env_backend(task, settings: SACSettings):

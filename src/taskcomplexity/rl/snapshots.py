@@ -23,7 +23,6 @@ import torch
 from taskcomplexity.policies.mlp import PolicyBatch
 from taskcomplexity.rl.layers import SeedBatchedLinear
 
-ACTORS_FILE = "actors.npz"
 PERTURBATION_STREAM = 0x1EA4
 """Spawn-key label of the perturbations ε of :meth:`ActorSnapshots.around` (apart from every other stream)."""
 

@@ -25,6 +25,7 @@ from taskcomplexity.cores import usable_cores
 from taskcomplexity.errors import ConfigError, WorkerLost
 from taskcomplexity.jobs import JobMeter
 from taskcomplexity.processes import start_worker, stop_pool
+from taskcomplexity.rl.curves import ACTORS_FILE
 from taskcomplexity.rl.settings import (
     OWN_ENV,
     SACSettings,
@@ -127,9 +128,6 @@ def run_sac_stage(
     ``cached_only``: never train; (None, False) when the cache does not hold the curve. ``bar_position``: the
     progress bar's line when several runs train at once.
     """
-    from taskcomplexity.rl import train_sac_run
-    from taskcomplexity.rl.snapshots import ACTORS_FILE
-
     identity = sac_identity(task, settings, solved_return=solved_return)
     key = stage_key(STAGE, NUMERICS, identity)
     if cached_only or not force:
@@ -140,6 +138,8 @@ def run_sac_stage(
     variant = settings.variant
 
     def write(directory) -> dict:
+        from taskcomplexity.rl import train_sac_run  # torch and torchrl: only when a run trains, not to look one up
+
         scratch = cache.scratch(STAGE, key)
         meter = JobMeter(variant)
         try:
@@ -340,8 +340,6 @@ def study_sac_curves(
         jobs = [(entry, task, variant) for entry, task, budgeted in runs
                 for variant in protocol_variants(task, budgeted)]
         trained = train_at_once(cache, jobs, workers, force=force, progress=progress)
-    from taskcomplexity.rl.snapshots import ACTORS_FILE
-
     frames, missing, actors, jobs = [], list(unbudgeted), {}, {}
     for entry, task, budgeted in runs:
         found = []
