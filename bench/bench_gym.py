@@ -226,7 +226,7 @@ def bench_env(name: str, env_id: str, kwargs: dict, args: argparse.Namespace, ne
     print(f"goal (rwg within {GOAL_RATIO}× of the floor per step, all {cores} cores busy), on the workers={cores} run "
           f"net of env setup: CPU ×floor {ratio:.2f} ({'≤' if fast else '>'} {GOAL_RATIO}), {busy:.2f} of {cores} "
           f"cores busy ({'≥' if full else '<'} {BUSY:.0%}): {'met' if fast and full else 'not met'}", flush=True)
-    floors.report("gym", "user-env", name, ratio, busy / cores)
+    floors.report("gym", "user-env", name, ratio, busy / cores, part=rows[1][1].cpu_us / floor.cpu_us)
     return {"env": name, "floor": floor, "rows": [row for _, row, _ in rows], "met": fast and full}
 
 

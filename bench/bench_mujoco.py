@@ -320,9 +320,11 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
     print(f"goal (rwg within {GOAL_RATIO}× of the floor per step, all {cores} cores busy), on {judged}: "
           f"CPU ×floor {ratio:.2f} ({'≤' if fast else '>'} {GOAL_RATIO}), {busy:.2f} of {cores} "
           f"cores busy ({'≥' if full else '<'} {BUSY:.0%}): {'met' if fast and full else 'not met'}", flush=True)
-    floors.report("gym", "mujoco", env_id, rows[6][1].cpu_us / floor.cpu_us, rows[4][1].busy / cores)
+    floors.report("gym", "mujoco", env_id, rows[6][1].cpu_us / floor.cpu_us, rows[4][1].busy / cores,
+                  part=rows[2][1].cpu_us / floor.cpu_us)
     if pool:
-        floors.report("envpool", "mujoco", env_id, rows[8][1].cpu_us / floor.cpu_us, rows[7][1].busy / cores)
+        floors.report("envpool", "mujoco", env_id, rows[8][1].cpu_us / floor.cpu_us, rows[7][1].busy / cores,
+                      part=rows[10][1].cpu_us / floor.cpu_us)
     return {"task": env_id, "floor": floor, "rows": [row for _, row, _ in rows], "met": fast and full}
 
 

@@ -35,6 +35,8 @@ class Floor:
     floor: str
     script: str
     goal: str = ""
+    part: str = ""
+    """What the line's ``part`` measures: a part of the distance to the floor, as ×floor (empty: none)."""
 
 
 FLOORS: tuple[Floor, ...] = (
@@ -46,10 +48,12 @@ FLOORS: tuple[Floor, ...] = (
     Floor("pybullet", "reaching-arms", "bare stepSimulation × substeps on the same PyBullet world, random torques, "
           "one process", "bench_rwg"),
     Floor("envpool", "mujoco", "bare mj_step × frame skip (gymnasium's mujoco), uniform random controls, net of "
-          "making the pools", "bench_mujoco", "≤ 1.3×, ≥ 90 % busy"),
-    Floor("gym", "mujoco", "bare mj_step × frame skip, all cores' run net of env setup", "bench_mujoco"),
+          "making the pools", "bench_mujoco", "≤ 1.3×, ≥ 90 % busy",
+          "EnvPool alone: its pool stepped on random actions, no policy"),
+    Floor("gym", "mujoco", "bare mj_step × frame skip, all cores' run net of env setup", "bench_mujoco", "",
+          "gymnasium.make().step in a plain loop, one env"),
     Floor("gym", "user-env", "a bare loop of one env's step() on random actions, all cores' run net of env setup",
-          "bench_gym", "≤ 1.3×, ≥ 90 % busy"),
+          "bench_gym", "≤ 1.3×, ≥ 90 % busy", "the same loop over the envs one process keeps in flight, in turn"),
     Floor("vector", "user-env", "the vector env's own step() on random actions, as many environments as one "
           "process keeps in flight, all cores' run", "bench_gym"),
 )
@@ -70,15 +74,19 @@ def cpu_path() -> str:
     return "AVX2" if avx2 else "native"
 
 
-def line(backend: str, family: str, task: str, ratio: float, busy: float | None = None) -> str:
-    """The machine-readable line of one measurement on this process's CPU path (``busy``: a share of the cores)."""
+def line(backend: str, family: str, task: str, ratio: float, busy: float | None = None,
+         part: float | None = None) -> str:
+    """The machine-readable line of one measurement on this process's CPU path (``busy``: a share of the cores;
+    ``part``: the ×floor of the part of the distance that :attr:`Floor.part` names)."""
     fields = f"backend={backend} family={family} task={task} path={cpu_path()} ratio={ratio:.3f}"
-    return f"{PREFIX} {fields}" + ("" if busy is None else f" busy={busy:.3f}")
+    return (f"{PREFIX} {fields}" + ("" if busy is None else f" busy={busy:.3f}")
+            + ("" if part is None else f" part={part:.3f}"))
 
 
-def report(backend: str, family: str, task: str, ratio: float, busy: float | None = None) -> None:
+def report(backend: str, family: str, task: str, ratio: float, busy: float | None = None,
+           part: float | None = None) -> None:
     """Print :func:`line`."""
-    print(line(backend, family, task, ratio, busy), flush=True)
+    print(line(backend, family, task, ratio, busy, part), flush=True)
 
 
 def collect(outputs: list[str]) -> list[dict]:
@@ -91,7 +99,8 @@ def collect(outputs: list[str]) -> list[dict]:
             try:
                 found.append({"backend": fields["backend"], "family": fields["family"], "task": fields["task"],
                               "path": fields["path"], "ratio": float(fields["ratio"]),
-                              "busy": float(fields["busy"]) if "busy" in fields else None})
+                              "busy": float(fields["busy"]) if "busy" in fields else None,
+                              "part": float(fields["part"]) if "part" in fields else None})
             except (KeyError, ValueError):
                 continue
     return found
@@ -129,11 +138,15 @@ def rows(found: list[dict]) -> list[dict[str, str]]:
         tasks = list(dict.fromkeys(r["task"] for r in mine))
         row["tasks"] = (", ".join(tasks) if len(tasks) <= MAX_TASKS_NAMED else f"{len(tasks)}") or "missing"
         row["goal"] = entry.goal if entry and entry.goal else "—"
+        parts = {path: [r["part"] for r in mine if r["path"] == path and r["part"] is not None] for path in PATHS}
+        row["of which"] = (f"{entry.part}: " + ", ".join(f"{path} {_figure(parts[path])}" for path in PATHS)
+                           if entry and entry.part else "—")
         table.append(row)
     return table
 
 
-COLUMNS = ("backend", "family", "×floor native", "×floor AVX2", "busy native", "busy AVX2", "goal", "tasks", "floor")
+COLUMNS = ("backend", "family", "×floor native", "×floor AVX2", "busy native", "busy AVX2", "goal", "of which",
+           "tasks", "floor")
 
 
 def summary(found: list[dict]) -> str:
@@ -146,6 +159,7 @@ def summary(found: list[dict]) -> str:
 
 
 HEADING = ("×floor: the backend's CPU per environment step over its floor's (median over the tasks, their range); "
-           "busy: CPU-s / wall-s / usable cores of the backend's run; missing: not measured in this run. Each script "
+           "busy: CPU-s / wall-s / usable cores of the backend's run; of which: the ×floor of a part of the distance, "
+           "measured in the same run; missing: not measured in this run. Each script "
            "ran natively and, right after, on the AVX2 path (tests/cpu_paths.py); each ratio is measured within one "
            "run, its two sides interleaved.")

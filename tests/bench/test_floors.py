@@ -23,9 +23,9 @@ floor: mj_step ×4                            5,000         20.0    1.00
 floor, policies' actions                     5,000         21.0    1.05
 goal (rwg within 1.3× of the floor per step, all 2 cores busy): CPU ×floor 2.08 (> 1.3): not met
 floor: backend=gym family=mujoco task=Hopper-v5 path=native ratio=3.100 busy=0.950
-floor: backend=envpool family=mujoco task=Hopper-v5 path=native ratio=2.080 busy=0.890
+floor: backend=envpool family=mujoco task=Hopper-v5 path=native ratio=2.080 busy=0.890 part=1.340
 floor: backend=gym family=mujoco task=Ant-v5 path=native ratio=2.900 busy=0.910
-floor: backend=envpool family=mujoco task=Ant-v5 path=native ratio=1.900 busy=0.700
+floor: backend=envpool family=mujoco task=Ant-v5 path=native ratio=1.900 busy=0.700 part=1.360
 floor: backend=envpool family=mujoco task=Walker2d-v5 path=native ratio=2.000 busy=0.800
 """
 AVX2_MUJOCO = """\
@@ -64,7 +64,8 @@ def test_lines_are_collected_and_the_table_rows_ignored(bench):
     # the table rows that begin with "floor:" and the line whose ratio is not a number are not figures
     assert len(found) == 9
     assert found[0] == {"backend": "gym", "family": "mujoco", "task": "Hopper-v5", "path": "native", "ratio": 3.1,
-                        "busy": 0.95}
+                        "busy": 0.95, "part": None}
+    assert [r["part"] for r in found if r["backend"] == "envpool"] == [1.34, 1.36, None, None]
     assert {r["task"] for r in found if r["backend"] == "pybullet"} == {"one_link_1m0-dense"}
     assert [r["busy"] for r in found if r["backend"] == "pybullet"] == [None]
 
@@ -81,6 +82,10 @@ def test_the_table_has_both_paths_and_shows_what_is_missing(bench):
     assert envpool["tasks"] == "Hopper-v5, Ant-v5, Walker2d-v5"
     assert envpool["goal"] == "≤ 1.3×, ≥ 90 % busy"
     assert "mj_step" in envpool["floor"]
+    # the part of the distance measured beside it: two tasks natively, none on the AVX2 path
+    assert envpool["of which"] == ("EnvPool alone: its pool stepped on random actions, no policy: native 1.35 "
+                                   "(1.34–1.36), AVX2 missing")
+    assert row_of(rows, "pybullet", "reaching-arms")["of which"] == "—"  # its floor declares no part
     pybullet = row_of(rows, "pybullet", "reaching-arms")
     assert (pybullet["×floor native"], pybullet["busy native"]) == ("2.70", "not measured")
     assert (pybullet["×floor AVX2"], pybullet["busy AVX2"]) == ("missing", "missing")
@@ -109,8 +114,9 @@ def test_a_script_line_names_its_cpu_path(bench, monkeypatch):
     from cpu_paths import AVX2_TARGET
 
     monkeypatch.delenv("NUMBA_CPU_NAME", raising=False)
-    native = floors.line("gym", "user-env", "point_mass", 1.234567, 0.5)
-    assert native == "floor: backend=gym family=user-env task=point_mass path=native ratio=1.235 busy=0.500"
+    native = floors.line("gym", "user-env", "point_mass", 1.234567, 0.5, part=1.1)
+    assert native == ("floor: backend=gym family=user-env task=point_mass path=native ratio=1.235 busy=0.500 "
+                      "part=1.100")
     monkeypatch.setenv("NUMBA_CPU_NAME", AVX2_TARGET)
     monkeypatch.setenv("ATEN_CPU_CAPABILITY", "avx2")
     avx2 = floors.line("kernel", "classic-control", "CartPole-v1/mlp32", 2.0)
