@@ -202,3 +202,31 @@ def test_after_the_warm_up_the_main_runs_compile_nothing(tmp_path):
                               timeout=1800)
         assert done.returncode == 0, done.stderr[-3000:]
         assert "compiling" not in done.stdout + done.stderr, run
+
+
+def test_a_finished_warm_up_of_these_sources_for_this_cpu_is_not_run_again(tmp_path, monkeypatch, capsys):
+    import json
+
+    import numba
+
+    import taskcomplexity.commands.compilation as compilation
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
+    (tmp_path / "kernel.nbi").write_bytes(b"")
+    stamp = {"identity": compilation.warm_up_identity(), "index_files": 1}
+    compilation.stamp_path().write_text(json.dumps(stamp))
+    assert compilation.stamp_path().parent == tmp_path and compilation.warmed_up()
+
+    def refused():
+        raise AssertionError("a warm-up ran")
+
+    monkeypatch.setattr(compilation, "warm_up", refused)
+    compilation.main()
+    assert "nothing to do" in capsys.readouterr().out
+    # another CPU target, another numba or other sources: not warmed up; nor once an index file it counted is gone
+    for key, value in (("cpu", "haswell"), ("numba", "0.0"), ("sources", "0" * 64)):
+        compilation.stamp_path().write_text(json.dumps({**stamp, "identity": {**stamp["identity"], key: value}}))
+        assert not compilation.warmed_up(), key
+    compilation.stamp_path().write_text(json.dumps(stamp))
+    (tmp_path / "kernel.nbi").unlink()
+    assert not compilation.warmed_up()

@@ -21,6 +21,7 @@ size into a temporary cache (:func:`warm_up`), so that their first run loads the
 from __future__ import annotations
 
 import logging
+import os
 import tempfile
 import threading
 import time
@@ -278,13 +279,72 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
     return compiled
 
 
+STAMP = "taskcomplexity-warm-up.json"
+"""The record of a finished warm-up, in numba's cache (``NUMBA_CACHE_DIR``, else the package's ``__pycache__``):
+what it was compiled from and for (:func:`warm_up_identity`) and how many index files the cache held after it."""
+
+
+def stamp_path() -> Path:
+    """Where :data:`STAMP` is written: beside numba's cache."""
+    import numba
+
+    package = Path(__file__).resolve().parents[1]
+    return (Path(numba.config.CACHE_DIR) if numba.config.CACHE_DIR else package / "__pycache__") / STAMP
+
+
+def warm_up_identity() -> dict:
+    """What decides the kernels a warm-up leaves in the cache: the digest of every source and config file of the
+    package (a kernel's source, the warm-up's studies, the settings they compose), numba's version and the CPU it
+    compiles for (``NUMBA_CPU_NAME``/``NUMBA_CPU_FEATURES`` or the host's), and Python's version."""
+    import hashlib
+    import platform
+
+    import numba
+    from llvmlite import binding
+
+    package = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for path in sorted(p for p in package.rglob("*") if p.suffix in (".py", ".yaml") and "__pycache__" not in p.parts):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    cpu = numba.config.CPU_NAME or binding.get_host_cpu_name()
+    features = numba.config.CPU_FEATURES or binding.get_host_cpu_features().flatten()
+    return {"sources": digest.hexdigest(), "numba": numba.__version__, "cpu": cpu, "features": features,
+            "python": platform.python_version()}
+
+
+def index_files() -> int:
+    """The number of numba index files (``*.nbi``) where the warm-up's kernels are cached."""
+    import numba
+
+    if numba.config.CACHE_DIR:
+        return sum(1 for _ in Path(numba.config.CACHE_DIR).rglob("*.nbi"))
+    return sum(1 for _ in Path(__file__).resolve().parents[1].rglob("__pycache__/*.nbi"))
+
+
+def warmed_up() -> bool:
+    """Whether a finished warm-up of these sources, for this CPU, left the cache as it still is (its stamp matches
+    and no index file it counted is gone): :func:`main` has nothing to compile then."""
+    import json
+
+    try:
+        record = json.loads(stamp_path().read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return record.get("identity") == warm_up_identity() and index_files() >= int(record.get("index_files", 1 << 30))
+
+
 def main() -> None:
-    """``python -m taskcomplexity.commands.compilation``: :func:`warm_up`, then one line on what it did."""
+    """``python -m taskcomplexity.commands.compilation``: :func:`warm_up` unless a finished one of these sources for
+    this CPU stands (:func:`warmed_up`), then one line on what it did; a finished warm-up writes :data:`STAMP`."""
+    import json
     import warnings
 
     from taskcomplexity.report.format import plural
 
     logging.basicConfig(level=logging.WARNING)
+    if warmed_up():
+        print(f"numba kernels: already compiled ahead for these sources on this CPU ({stamp_path()}); nothing to do")
+        return
     # The classic-control protocol's CartPole-v0 is chosen, not stale (as in the tests' filter, pyproject.toml).
     warnings.filterwarnings("ignore", message=".*The environment CartPole-v0 is out of date",
                             category=DeprecationWarning)
@@ -296,6 +356,11 @@ def main() -> None:
               f"(warm-up {seconds:.0f} s in all); cached in {cache_location()}")
     else:
         print(f"numba kernels: every one already in the cache ({cache_location()}; warm-up {seconds:.0f} s)")
+    stamp = stamp_path()
+    stamp.parent.mkdir(parents=True, exist_ok=True)
+    temporary = stamp.with_name(f".{stamp.name}.{os.getpid()}.tmp")
+    temporary.write_text(json.dumps({"identity": warm_up_identity(), "index_files": index_files()}), encoding="utf-8")
+    temporary.replace(stamp)
 
 
 if __name__ == "__main__":
