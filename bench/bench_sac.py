@@ -36,13 +36,16 @@ import taskcomplexity  # noqa: F401 - registers the tasks
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.rl import SACSettings, protocol_variants, train_sac, train_sac_seeds, with_budget
 from taskcomplexity.rl.factories import make_env
-from taskcomplexity.rl.settings import BACKENDS, env_backend
+from taskcomplexity.rl.settings import OWN_ENV, env_backend
+from taskcomplexity.rwg.backends import sac_backends
 from taskcomplexity.study_data import load_study_file
 from taskcomplexity.tasks.spec import make_task
 
 PAPER_STUDY = CONF_DIR / "study" / "seven_tasks.yaml"
 BENCH_TASK = ("one_link_1m0", "dense")
 PAPER_SEEDS = 5
+SAC_BACKENDS = (OWN_ENV, *sac_backends())
+"""What steps SAC's environments, side by side: each task's own env (PyBullet), then each backend's vector env."""
 WARMUP = 1000
 ENV_PROBE_STEPS = 300
 ENV_PROBE_WARMUP = 20
@@ -220,14 +223,14 @@ def main() -> None:
     runs = paper_runs()
     seed_steps = sum(budget for *_, budget in runs) * PAPER_SEEDS
     probe = {backend: {(arm, reward, her): env_step_seconds(arm, reward, her, backend=backend)
-                       for arm, reward, her, _ in runs} for backend in BACKENDS}
+                       for arm, reward, her, _ in runs} for backend in SAC_BACKENDS}
 
     load_before = os.getloadavg()[0]
     results: dict[str, dict[str, float]] = {}
     results["1 seed"] = measure((0,), args.steps) | {"processes": 1, "backend": "pybullet"}
     five = tuple(range(PAPER_SEEDS))
-    for backend in BACKENDS:  # side by side: PyBullet, then the batched kernel stepping the environments
-        suffix = "" if backend == "pybullet" else ", batched"
+    for backend in SAC_BACKENDS:  # side by side: PyBullet, then the batched kernel stepping the environments
+        suffix = "" if backend == OWN_ENV else f", {backend}"
         results[f"5 seeds together{suffix}"] = measure(five, args.steps, backend) | {"processes": 1,
                                                                                       "backend": backend}
         if not args.no_concurrent:
