@@ -22,6 +22,12 @@ ROOT = Path(__file__).resolve().parents[2]
 RWG = str(ROOT / "pipelines" / "rwg.py")
 
 
+def saved_chunks(outputs) -> list:
+    """The RWG chunks a run has saved, not those being written (``chunk-…<pid>.tmp.npz``, renamed into place once
+    whole): on a busy machine a test that acted on a chunk in writing could find nothing to resume."""
+    return [c for c in outputs.glob("cache/rwg/.partial-*/chunk-*.npz") if ".tmp." not in c.name]
+
+
 def test_ctrl_c_is_one_line_exit_130_and_the_rerun_resumes_to_the_same_returns(tmp_path):
     outputs = tmp_path / "outputs"
     args = [sys.executable, RWG, "task=cartpole", "backend=gym", "rwg.policies=40", "rwg.episodes=4", "rwg.chunk_policies=2",
@@ -31,7 +37,7 @@ def test_ctrl_c_is_one_line_exit_130_and_the_rerun_resumes_to_the_same_returns(t
     job = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
-    while time.time() < deadline and len(list(outputs.glob("cache/rwg/.partial-*/chunk-*.npz"))) < 2:
+    while time.time() < deadline and len(saved_chunks(outputs)) < 2:
         time.sleep(0.05)
     assert job.poll() is None, "the run finished before it could be interrupted"
     job.send_signal(signal.SIGINT)
@@ -64,7 +70,7 @@ def test_a_full_disk_is_one_line_naming_the_path_and_the_rerun_resumes(small_dis
     job = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
-    while time.time() < deadline and not list(outputs.glob("cache/rwg/.partial-*/chunk-*.npz")):
+    while time.time() < deadline and not saved_chunks(outputs):
         time.sleep(0.02)
     filler = small_disk / "filler"  # the disk fills up while the run is under way
     with open(filler, "wb", buffering=0) as handle:
@@ -118,7 +124,7 @@ def test_sigterm_is_one_line_exit_143_and_the_rerun_resumes_to_the_same_returns(
     job = subprocess.Popen(_cartpole(outputs), cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                            text=True)
     deadline = time.time() + 120
-    while time.time() < deadline and len(list(outputs.glob("cache/rwg/.partial-*/chunk-*.npz"))) < 2:
+    while time.time() < deadline and len(saved_chunks(outputs)) < 2:
         time.sleep(0.05)
     assert job.poll() is None, "the run finished before it could be terminated"
     job.terminate()  # SIGTERM: `kill`, a cluster's time limit
