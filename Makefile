@@ -119,7 +119,7 @@ classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_contro
 # pytest-xdist: one worker per core, each test file on one worker (its module fixtures are computed once).
 XDIST := -n auto --dist loadfile
 
-test: $(STAMP) ## run the test suite (CI runs it with make test-cluster, make test-avx2 and make docs: .ci/run)
+test: $(STAMP) ## run the test suite (CI runs it, then make test-cluster and make test-avx2)
 	$(PY) -m pytest -q -m "not slow and not cluster" $(XDIST)
 
 # The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
@@ -153,7 +153,7 @@ test-manipulation: $(STAMP) ## installs the metaworld extra and runs the tests t
 	$(PY) -m pytest -q tests/tasks/test_manipulation.py
 
 # The cluster tests to run (a pytest -m expression): CI runs those that wait on SLURM beside make test, and the ones
-# that install an extra into .venv (marker `installs`) after it and make docs, alone (.ci/run).
+# that install an extra into .venv (marker `installs`) after it, alone (.ci/run).
 CLUSTER_TESTS ?= cluster
 
 test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the local cluster (starts it; make cluster-down stops it)
