@@ -212,13 +212,7 @@ def bench_env(name: str, env_id: str, kwargs: dict, args: argparse.Namespace, ne
     print(f"\n{name} ({env_id}): observation {task.observation_size}, action {task.action_size}, episodes ≤ "
           f"{task.max_steps} steps; rwg: N = {args.policies} × M = {args.episodes}, {len(ranges)} chunks of ≤ {first} "
           f"policies × {width} episodes in flight = {in_flight} envs per process; medians of {args.repeats}")
-    head = (f"{'path':<38}{'steps':>9}{'CPU-µs/step':>13}{'×floor':>8}{'wall-µs/step':>14}{'CPU-s/wall-s':>14}"
-            f"{'processes':>11}")
-    print(head)
-    print("-" * len(head))
-    for label, row, procs in rows:
-        print(f"{label:<38}{row.steps:>9,}{row.cpu_us:>13.2f}{row.cpu_us / floor.cpu_us:>8.2f}{row.wall_us:>14.2f}"
-              f"{row.busy:>14.2f}{procs:>11}")
+    print_rows(rows, floor)
     print(f"env setup: {per_env * 1e3:.2f} ms CPU per task.make_env() × {in_flight} envs × processes")
     net, busy = rows[6][1], rows[4][1].busy
     ratio = net.cpu_us / floor.cpu_us
@@ -281,6 +275,13 @@ def bench_vector(args: argparse.Namespace, network, cores: int) -> None:
     print(f"\nvector_pendulum ({task.env_id}, the vector backend): observation {task.observation_size}, action "
           f"{task.action_size}, episodes ≤ {task.max_steps} steps; rwg: N = {args.policies} × M = {args.episodes}, "
           f"{len(ranges)} chunks of ≤ {first} policies, {in_flight} envs per vector env; medians of {args.repeats}")
+    print_rows(rows, floor)
+    floors.report("vector", "user-env", "vector_pendulum", rows[2][1].cpu_us / floor.cpu_us, rows[2][1].busy / cores)
+
+
+def print_rows(rows: list, floor) -> None:
+    """The table of ``rows`` ((label, Row, processes)): steps, CPU-µs per step and its ratio to ``floor``'s, wall-µs per
+    step, cores busy (CPU-s per wall-s), processes."""
     head = (f"{'path':<38}{'steps':>9}{'CPU-µs/step':>13}{'×floor':>8}{'wall-µs/step':>14}{'CPU-s/wall-s':>14}"
             f"{'processes':>11}")
     print(head)
@@ -288,7 +289,6 @@ def bench_vector(args: argparse.Namespace, network, cores: int) -> None:
     for label, row, procs in rows:
         print(f"{label:<38}{row.steps:>9,}{row.cpu_us:>13.2f}{row.cpu_us / floor.cpu_us:>8.2f}{row.wall_us:>14.2f}"
               f"{row.busy:>14.2f}{procs:>11}")
-    floors.report("vector", "user-env", "vector_pendulum", rows[2][1].cpu_us / floor.cpu_us, rows[2][1].busy / cores)
 
 
 def main() -> int:
