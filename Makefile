@@ -4,7 +4,9 @@ PYTHON ?= python3.11
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-DOCS_STAMP := $(VENV)/.docs-installed
+ATLAS := $(VENV)/.extra-atlas
+METAWORLD := $(VENV)/.extra-atlas,metaworld
+DOCS_STAMP := $(VENV)/.extra-dev,docs
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
@@ -30,6 +32,12 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet $(TORCH)
 	$(PY) -m pip install --quiet -e '.[dev]'
 	@touch $(STAMP)
+
+# An extra (the part of .[…] after the dash), installed once per change of pyproject.toml: pip reinstalls the package
+# itself on every call, so a command that imports it meanwhile (a study in another shell, a test) would fail.
+$(VENV)/.extra-%: $(STAMP) pyproject.toml
+	$(PY) -m pip install --quiet -e '.[$*]'
+	@touch '$@'
 
 install: $(STAMP) ## create .venv, install the package with its pinned dependencies and compile its numba kernels
 	$(PY) -m taskcomplexity.commands.compilation
@@ -57,22 +65,18 @@ beyond: $(STAMP) ## make run + a fifth of the SAC budgets × 2 seeds: the paper'
 classic: $(STAMP) ## the original PIC/POIC protocol on classic control (study=classic_control: N = M = 1000, five tasks)
 	$(PY) pipelines/study.py study=classic_control $(ARGS)
 
-atlas: $(STAMP) ## Furuta et al.'s 13 tasks (classic control, MuJoCo, DM Control) against their Score(A); installs the atlas extra
-	$(PY) -m pip install --quiet -e '.[atlas]'
+atlas: $(ATLAS) ## Furuta et al.'s 13 tasks (classic control, MuJoCo, DM Control) against their Score(A); installs the atlas extra
 	$(PY) pipelines/study.py experiment=atlas $(ARGS)
 
-atlas-cost: $(STAMP) ## what make atlas (with ARGS=… its overrides, e.g. Furuta's N = M = 1000) will cost, from a pilot of each task
-	$(PY) -m pip install --quiet -e '.[atlas]'
+atlas-cost: $(ATLAS) ## what make atlas (with ARGS=… its overrides, e.g. Furuta's N = M = 1000) will cost, from a pilot of each task
 	$(PY) pipelines/cost.py experiment=atlas $(ARGS)
 
 # Meta-World's tasks need metaworld 3.1.1, which pins mujoco 3.3.0; installing it with the atlas extra lets pip pick
 # the dm-control that runs on that MuJoCo, so make atlas and make manipulation share one consistent virtualenv.
-manipulation: $(STAMP) ## Meta-World's 50 manipulation tasks against their published difficulty groups (about an hour on 2 cores); installs the metaworld extra
-	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+manipulation: $(METAWORLD) ## Meta-World's 50 manipulation tasks against their published difficulty groups (about an hour on 2 cores); installs the metaworld extra
 	$(PY) pipelines/study.py experiment=manipulation $(ARGS)
 
-manipulation-cost: $(STAMP) ## what make manipulation (with ARGS=… its overrides, e.g. study.policies=100 study.episodes=10) will cost, from a pilot of each task
-	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+manipulation-cost: $(METAWORLD) ## what make manipulation (with ARGS=… its overrides, e.g. study.policies=100 study.episodes=10) will cost, from a pilot of each task
 	$(PY) pipelines/cost.py experiment=manipulation $(ARGS)
 
 # Furuta et al.'s own budget on make atlas's 13 tasks, through a SLURM cluster (the local one of make cluster-up by
@@ -83,8 +87,7 @@ ATLAS_BUDGET ?= study.policies=1000 study.episodes=1000
 ATLAS_SHARDS ?= 8
 ON_CLUSTER = hydra/launcher=cluster hydra.launcher.partition=$(PARTITION)
 
-atlas-cluster: $(STAMP) ## Furuta et al.'s budget (13 tasks, N = M = 1000) priced, then sent to SLURM: RWG shards as a job array, the study as a job (PARTITION=<yours>)
-	$(PY) -m pip install --quiet -e '.[atlas]'
+atlas-cluster: $(ATLAS) ## Furuta et al.'s budget (13 tasks, N = M = 1000) priced, then sent to SLURM: RWG shards as a job array, the study as a job (PARTITION=<yours>)
 	$(PY) pipelines/cost.py experiment=atlas $(ATLAS_BUDGET) rwg.shards=$(ATLAS_SHARDS) $(ON_CLUSTER) $(ARGS)
 	$(PY) pipelines/rwg.py -m experiment=atlas $(ATLAS_BUDGET) $(ON_CLUSTER) \
 		rwg.entry=$$($(PY) -m taskcomplexity.commands.study_tasks furuta_benchmark) \
@@ -101,16 +104,14 @@ ATLAS_BAG := network=$(CLASSIC_NETWORKS) prior=$(CLASSIC_PRIORS) network.input_b
 MANIPULATION_BUDGET ?= study.policies=100 study.episodes=10
 MANIPULATION_SHARDS ?= 4
 
-manipulation-cluster: $(STAMP) ## Meta-World's 50 tasks at the study's own budget (N = 100, M = 10) priced, then sent to SLURM like atlas-cluster (PARTITION=<yours>)
-	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+manipulation-cluster: $(METAWORLD) ## Meta-World's 50 tasks at the study's own budget (N = 100, M = 10) priced, then sent to SLURM like atlas-cluster (PARTITION=<yours>)
 	$(PY) pipelines/cost.py experiment=manipulation $(MANIPULATION_BUDGET) rwg.shards=$(MANIPULATION_SHARDS) $(ON_CLUSTER) $(ARGS)
 	$(PY) pipelines/rwg.py -m experiment=manipulation $(MANIPULATION_BUDGET) $(ON_CLUSTER) \
 		rwg.entry=$$($(PY) -m taskcomplexity.commands.study_tasks metaworld) \
 		rwg.shards=$(MANIPULATION_SHARDS) 'rwg.shard=range($(MANIPULATION_SHARDS))' $(ARGS)
 	$(PY) pipelines/study.py -m experiment=manipulation $(MANIPULATION_BUDGET) $(ON_CLUSTER) $(ARGS)
 
-atlas-bag: $(STAMP) ## the 56 cells of Furuta et al.'s bag on make atlas's study as a multirun + its sweep report (a cluster job: ARGS='hydra/launcher=cluster …')
-	$(PY) -m pip install --quiet -e '.[atlas]'
+atlas-bag: $(ATLAS) ## the 56 cells of Furuta et al.'s bag on make atlas's study as a multirun + its sweep report (a cluster job: ARGS='hydra/launcher=cluster …')
 	$(PY) pipelines/study.py -m experiment=atlas $(ATLAS_BAG) $(ARGS)
 
 classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_control as a multirun + its sweep report (ARGS=… adds overrides, e.g. a launcher)
@@ -130,8 +131,7 @@ PINNED_TESTS := tests/golden tests/metrics/test_log_mean_exp.py tests/tasks/test
 # The tests that run only with the atlas extra (MuJoCo, DM Control, EnvPool); make test skips them without it.
 ATLAS_TESTS := tests/rwg/test_envpool_backend.py tests/tasks/test_gym_task.py tests/policies/test_policies.py
 
-test-atlas: $(STAMP) ## installs the atlas extra and runs the tests that need it: EnvPool against gymnasium per task (minutes)
-	$(PY) -m pip install --quiet -e '.[atlas]'
+test-atlas: $(ATLAS) ## installs the atlas extra and runs the tests that need it: EnvPool against gymnasium per task (minutes)
 	$(PY) -m pytest -q $(XDIST) $(ATLAS_TESTS)
 
 # A single-node SLURM cluster on this machine (Debian's slurm-wlm, munge and MariaDB; root), partition `local`: the
@@ -144,12 +144,10 @@ cluster-up: ## start a single-node SLURM cluster on this machine, partition `loc
 cluster-down: ## stop the local SLURM cluster: its jobs cancelled, its daemons stopped (logs stay in outputs/cluster/log)
 	bash $(CLUSTER) down
 
-cluster-cost: $(STAMP) cluster-up ## make atlas-cost's prediction beside the CPU the local cluster's jobs used (sacct), per task (ARGS=<overrides>)
-	$(PY) -m pip install --quiet -e '.[atlas]'
+cluster-cost: $(ATLAS) cluster-up ## make atlas-cost's prediction beside the CPU the local cluster's jobs used (sacct), per task (ARGS=<overrides>)
 	$(PY) bench/cluster_cost.py $(ARGS)
 
-test-manipulation: $(STAMP) ## installs the metaworld extra and runs the tests that need it: every Meta-World task seeded per episode (a minute)
-	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+test-manipulation: $(METAWORLD) ## installs the metaworld extra and runs the tests that need it: every Meta-World task seeded per episode (a minute)
 	$(PY) -m pytest -q tests/tasks/test_manipulation.py
 
 # The cluster tests to run (a pytest -m expression): CI runs those that wait on SLURM beside make test, and the ones
@@ -168,9 +166,6 @@ test-all: $(STAMP) cluster-up ## every test, including the slow learning checks 
 lint: $(STAMP) ## ruff
 	$(VENV)/bin/ruff check src tests pipelines bench
 
-$(DOCS_STAMP): $(STAMP) pyproject.toml
-	$(PY) -m pip install --quiet -e '.[dev,docs]'
-	@touch $(DOCS_STAMP)
 
 docs: $(DOCS_STAMP) ## build the documentation site into site/ with --strict
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict --site-dir site
@@ -178,8 +173,7 @@ docs: $(DOCS_STAMP) ## build the documentation site into site/ with --strict
 docs-serve: $(DOCS_STAMP) ## serve the documentation at http://127.0.0.1:8000 while you edit it
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs serve --dev-addr 127.0.0.1:8000
 
-bench: $(STAMP) ## benchmarks: figures and ratios measured side by side (installs the atlas and metaworld extras for bench_mujoco and bench_metaworld)
-	$(PY) -m pip install --quiet -e '.[atlas,metaworld]'
+bench: $(METAWORLD) ## benchmarks: figures and ratios measured side by side (installs the atlas and metaworld extras for bench_mujoco and bench_metaworld)
 	$(PY) bench/run.py $(ARGS)
 
 fidelity: $(STAMP) ## Table 1 at the published scale beside the published cells, with the probes of docs/explanation/fidelity.md (ARGS=--scan: + the torque scan)

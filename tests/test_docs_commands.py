@@ -74,10 +74,11 @@ BUDGETS: list[tuple[str, str, str]] = [
      "the obstacle task at N = 10⁴ × M = 500 in 64 jobs; at N = 16 × M = 4 in 4 jobs"),
     ("study.policies=1000 study.episodes=1000", "study.policies=10 study.episodes=4",
      "make atlas-cluster: Furuta et al.'s N = M = 1000 (63 CPU-hours); N = 10 × M = 4"),
-    ("rwg.shards=8 'rwg.shard=range(8)'", "rwg.shards=2 'rwg.shard=range(2)'",
-     "make atlas-cluster: 13 tasks × 8 shards, 104 jobs; × 2 shards"),
-    ("rwg.shards=8 hydra/launcher=cluster", "rwg.shards=2 hydra/launcher=cluster",
-     "make atlas-cluster's price: of the 2 shards it sends"),
+    ("rwg.shards=8 'rwg.shard=range(8)'", "rwg.shards=1 'rwg.shard=range(1)'",
+     "make atlas-cluster: 13 tasks × 8 shards, 104 jobs; × 1 shard, 13 jobs (each job's start costs more CPU than "
+     "its RWG at this budget; tests/cluster/test_slurm.py sends and merges shards)"),
+    ("rwg.shards=8 hydra/launcher=cluster", "rwg.shards=1 hydra/launcher=cluster",
+     "make atlas-cluster's price: of the 1 shard per task it sends"),
 ]
 
 SLOW = {
@@ -103,7 +104,7 @@ local cluster's start and stop (a test that stops it starts it again); the SAC j
 
 CLUSTER = {
     ".venv/bin/python pipelines/rwg.py -m hydra/launcher=cluster": "a job array on the local SLURM cluster",
-    "make atlas-cluster PARTITION=local": "13 tasks × 2 shards as a job array and the study as a job, on the local "
+    "make atlas-cluster PARTITION=local": "13 tasks × 1 shard as a job array and the study as a job, on the local "
                                           "SLURM cluster",
     "make classic-sweep ARGS='hydra/launcher=cluster": "a sweep's cells as jobs on the local SLURM cluster",
 }
@@ -113,9 +114,10 @@ CLUSTER = {
 INSTALLS = {
     "make atlas-cluster PARTITION=local": "its recipe installs the atlas extra (pip install -e '.[atlas]')",
 }
-"""Blocks that install an extra into ``.venv`` (marker ``installs``): the package is reinstalled, and a process
-that imports it meanwhile fails, so nothing runs beside them. CI runs the other cluster tests beside ``make test``
-and these after it (``.ci/run``); ``test_the_blocks_that_install_an_extra_are_marked`` keeps the list whole."""
+"""Blocks whose targets install an extra into ``.venv`` where it is not installed yet (marker ``installs``): pip
+reinstalls the package, and a process that imports it meanwhile fails. CI runs the other cluster tests beside
+``make test``, then installs the extras these need and runs them beside the AVX2 pass (``.ci/run``);
+``test_the_blocks_that_install_an_extra_are_marked`` keeps the list whole."""
 
 DRIFT = '''"""The tutorial's own env: a point drifting on a line, pushed by the action (test_docs_commands)."""
 import gymnasium as gym
@@ -223,13 +225,16 @@ def logical_lines(script: str) -> list[str]:
     return joined
 
 
-def expand_make(script: str, environment: dict) -> str:
-    """Each ``make …`` line replaced by the recipe ``make -n`` prints for it (the install step taken as done)."""
+def expand_make(script: str, environment: dict, *, extras_installed: bool = True) -> str:
+    """Each ``make …`` line replaced by the recipe ``make -n`` prints for it (the install step taken as done): with
+    the install of an extra where its stamp is missing or older than ``pyproject.toml``, and where ``extras_installed``
+    is false, always (as on a machine that has not installed it yet)."""
     out = []
+    fresh = "" if extras_installed else "-W pyproject.toml "
     for line in logical_lines(script):
         command = line.split("#", 1)[0].strip() if not line.lstrip().startswith("#") else ""
         if command.startswith("make "):
-            dry = subprocess.run(["bash", "-c", f"make -n -o .venv/.installed {command[len('make '):]}"],
+            dry = subprocess.run(["bash", "-c", f"make -n {fresh}-o .venv/.installed {command[len('make '):]}"],
                                  cwd=ROOT, env=environment, capture_output=True, text=True, timeout=120)
             assert dry.returncode == 0, dry.stderr
             recipe = [r for r in dry.stdout.splitlines() if r.strip()]
@@ -291,9 +296,10 @@ def test_every_budget_substitution_is_used():
 
 def test_the_blocks_that_install_an_extra_are_marked():
     # CI runs the cluster tests beside make test, but a block that installs into .venv only after it: the blocks
-    # whose script (make targets expanded) runs pip install are those of INSTALLS
+    # whose script (make targets expanded) runs pip install on a machine without the extras are those of INSTALLS
     environment = user_environment(ROOT, ROOT / "outputs")
-    pip = {b.id for b in RUNNABLE if re.search(r"\bpip install\b", expand_make(commands(b), environment))}
+    pip = {b.id for b in RUNNABLE
+           if re.search(r"\bpip install\b", expand_make(commands(b), environment, extras_installed=False))}
     assert pip == {b.id for b in RUNNABLE if installs(b)} and pip
 
 
