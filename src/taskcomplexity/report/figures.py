@@ -71,13 +71,23 @@ def paper_style():
 
 def save_figure(figure: Figure, directory: Path, name: str) -> list[Path]:
     """Write ``name.png`` (150 dpi) and ``name.pdf`` under ``directory``, their ticks made legible first
-    (:func:`legible_ticks`); return both paths."""
+    (:func:`legible_ticks`); return both paths.
+
+    Both files share the layout of the last draw: the layout engine (constrained) is held off while they are
+    written, so that neither lays the figure out again (a fifth of a report's drawing time).
+    """
     directory.mkdir(parents=True, exist_ok=True)
     paths = [directory / f"{name}.png", directory / f"{name}.pdf"]
     with paper_style():
+        figure.set_dpi(DPI)   # laid out as the PNG is drawn
         legible_ticks(figure)
-        for path in paths:
-            figure.savefig(path, dpi=DPI, metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
+        engine = figure.get_layout_engine()
+        figure.set_layout_engine("none")
+        try:
+            for path in paths:
+                figure.savefig(path, dpi=DPI, metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
+        finally:
+            figure.set_layout_engine(engine)
     return paths
 
 
@@ -123,7 +133,8 @@ def legible_ticks(figure: Figure, *, attempts: int = 4) -> Figure:
     shows 1, 2, 5), a linear one at least 2 from its locator. An axis whose labels overlap gets fewer: first its
     minor labels go, then a linear axis asks its locator for fewer bins and a log axis drops its 2s and 5s, then
     decades. Fixed ticks (category names, the sizes of a sweep) are left as drawn. The figure is laid out again
-    after each change, up to ``attempts`` times; returns ``figure``.
+    after each change, up to ``attempts`` times, and drawn once more after the last one, so that its last draw (and
+    layout) is of the figure as it stands; returns ``figure``.
     """
     for _ in range(attempts):
         figure.draw_without_rendering()
@@ -137,7 +148,8 @@ def legible_ticks(figure: Figure, *, attempts: int = 4) -> Figure:
                     elif overlapping(labels):
                         changed |= _fewer_ticks(axis, len(labels))
         if not changed:
-            break
+            return figure
+    figure.draw_without_rendering()
     return figure
 
 
