@@ -231,10 +231,12 @@ def test_a_job_past_its_last_requeue_is_one_line_and_keeps_its_saved_chunks(envi
 
 def test_two_studies_sent_at_once_share_the_cache_and_their_methods_name_the_jobs(environment, tmp_path):
     # study=ablation's `default` variant is seven_tasks' one_link_1m65-dense: at experiment=smoke both studies need
-    # the same RWG key. Sent at once, one job computes it and the other waits for it and reads it.
+    # the same RWG key. Sent at once, one job computes it and the other waits for it and reads it. SAC is off: what
+    # is shared here is the RWG (test_sac_runs_sent_as_jobs_are_read_back_by_the_study sends SAC as jobs).
     outputs = tmp_path / "out"
     studies = ("seven_tasks", "ablation")
-    running = [start(STUDY, "-m", *LAUNCHER, "experiment=smoke", f"study={study}", f"paths.outputs={outputs}",
+    running = [start(STUDY, "-m", *LAUNCHER, "experiment=smoke", "sac.enabled=false", f"study={study}",
+                     f"paths.outputs={outputs}",
                      f"hydra.sweep.dir={tmp_path / study}", env=environment, cwd=tmp_path) for study in studies]
     for study, process in zip(studies, running, strict=True):
         _, stderr = process.communicate(timeout=600)
