@@ -33,8 +33,9 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev]'
 	@touch $(STAMP)
 
-# An extra (the part of .[…] after the dash), installed once per change of pyproject.toml: pip reinstalls the package
-# itself on every call, so a command that imports it meanwhile (a study in another shell, a test) would fail.
+# .venv/.extra-<extras>: pip install -e '.[<extras>]', once per change of pyproject.toml (a stamp, as .installed): pip
+# reinstalls the package itself on every call, so a command that imports it meanwhile (a study in another shell, a
+# test) would fail.
 $(VENV)/.extra-%: $(STAMP) pyproject.toml
 	$(PY) -m pip install --quiet -e '.[$*]'
 	@touch '$@'
@@ -165,7 +166,6 @@ test-all: $(STAMP) cluster-up ## every test, including the slow learning checks 
 
 lint: $(STAMP) ## ruff
 	$(VENV)/bin/ruff check src tests pipelines bench
-
 
 docs: $(DOCS_STAMP) ## build the documentation site into site/ with --strict
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict --site-dir site
