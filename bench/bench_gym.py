@@ -156,6 +156,7 @@ def bench_env(name: str, env_id: str, kwargs: dict, args: argparse.Namespace, ne
     from taskcomplexity.policies.families import sample_family
     from taskcomplexity.policies.mlp import PriorSpec
     from taskcomplexity.rwg import RWGSettings, chunks, run_rwg
+    from taskcomplexity.rwg.backends import backend
     from taskcomplexity.rwg.gym_backend import slots_per_policy
     from taskcomplexity.tasks.gym_task import GymTask
 
@@ -167,7 +168,7 @@ def bench_env(name: str, env_id: str, kwargs: dict, args: argparse.Namespace, ne
 
     ranges = chunks(task, network, settings(cores), "gym")
     first = ranges[0][1] - ranges[0][0]
-    width = slots_per_policy(first, args.episodes)
+    width = slots_per_policy(first, args.episodes, backend("gym").environments_in_flight(task))
     in_flight = first * width
     processes = max(1, min(cores, len(ranges)))  # rwg.workers=0: one process per core, at most one per chunk
     rng = np.random.default_rng(args.seed)
@@ -230,6 +231,7 @@ def bench_vector(args: argparse.Namespace, network, cores: int) -> None:
     keeps in flight; prints its table and its floor line."""
     from taskcomplexity.policies.mlp import PriorSpec
     from taskcomplexity.rwg import RWGSettings, chunks, run_rwg
+    from taskcomplexity.rwg.backends import backend
     from taskcomplexity.rwg.gym_backend import slots_per_policy
     from taskcomplexity.tasks.gym_task import GymTask
     from taskcomplexity.tasks.vectorised import make_vector
@@ -243,7 +245,7 @@ def bench_vector(args: argparse.Namespace, network, cores: int) -> None:
 
     ranges = chunks(task, network, settings(cores), "vector")
     first = ranges[0][1] - ranges[0][0]
-    in_flight = first * slots_per_policy(first, args.episodes)
+    in_flight = first * slots_per_policy(first, args.episodes, backend("vector").environments_in_flight(task))
     processes = max(1, min(cores, len(ranges)))
     env = make_vector(task, in_flight)
     space = task.action_space

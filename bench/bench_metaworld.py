@@ -77,7 +77,7 @@ def rwg(task, workers: int, policies: int, episodes: int) -> tuple[float, float,
 
     import taskcomplexity
     from taskcomplexity.policies.families import PriorSpec, network_from_config
-    from taskcomplexity.rwg.backends import environments_in_flight
+    from taskcomplexity.rwg.backends import backend
     from taskcomplexity.rwg.chunking import chunk_size
     from taskcomplexity.rwg.run import run_rwg
     from taskcomplexity.rwg.settings import RWGSettings
@@ -86,7 +86,8 @@ def rwg(task, workers: int, policies: int, episodes: int) -> tuple[float, float,
     network = network_from_config(OmegaConf.load(conf / "network" / "mlp32.yaml"))
     settings = RWGSettings(policies=policies, episodes=episodes, workers=workers)
     size = chunk_size(task, network, settings, "gym")
-    per_process = min(size, policies) * min(episodes, max(1, environments_in_flight(task) // min(size, policies)))
+    in_flight = backend("gym").environments_in_flight(task)
+    per_process = min(size, policies) * min(episodes, max(1, in_flight // min(size, policies)))
     processes = min(workers, -(-policies // size))  # a process per chunk at most
     envs = per_process * processes + 1  # + the replay check's env
     start, wall = cpu(), time.perf_counter()

@@ -234,6 +234,7 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
 
     from taskcomplexity.policies.mlp import PriorSpec
     from taskcomplexity.rwg import RWGSettings, chunks, run_rwg
+    from taskcomplexity.rwg.backends import backend
     from taskcomplexity.rwg.gym_backend import slots_per_policy
     from taskcomplexity.rwg.workers import worker_count
     from taskcomplexity.tasks.gym_task import GymTask
@@ -261,7 +262,7 @@ def bench_task(env_id: str, args: argparse.Namespace, network, cores: int) -> di
     run_rwg(task, network, prior, RWGSettings(policies=2, episodes=2, seed=args.seed, workers=1), "gym")  # warm
     ranges = chunks(task, network, settings(cores), "gym")
     first = ranges[0][1] - ranges[0][0]
-    in_flight = first * slots_per_policy(first, args.episodes)
+    in_flight = first * slots_per_policy(first, args.episodes, backend("gym").environments_in_flight(task))
     processes = worker_count(settings(cores), len(ranges))
     per_env = setup_seconds(task, min(in_flight, args.setup_envs))
     taken = recorded_actions(env_id, limit, network, prior, args.seed, args.policies, min(args.episodes, 4),

@@ -24,7 +24,7 @@ def _chunks(backend) -> str:
         return "`rwg.chunk_memory_mb`: every episode of a chunk at once"
     if backend.chunk_policies:
         return f"{backend.chunk_policies} policies"
-    return "the policies that fill the environments in flight"
+    return f"the policies that fill {backend.in_flight} environments in flight"
 
 
 def pages() -> dict[str, str]:

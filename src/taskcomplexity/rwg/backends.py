@@ -41,8 +41,12 @@ if TYPE_CHECKING:
 AUTO = "auto"
 """``backend=auto``: the first of the task's backends that the policy family runs on."""
 ENVIRONMENTS_IN_FLIGHT = 256
-"""Environments a backend that keeps a bounded number in flight steps together, by default (the ``gym`` and
-``vector`` backends' pool, the ``envpool`` backend's policies per chunk)."""
+"""Environments a backend that keeps a bounded number in flight steps together, by default (the ``vector`` backend's
+pool, the ``envpool`` backend's policies per chunk)."""
+PYTHON_ENVIRONMENTS_IN_FLIGHT = 64
+"""The ``gym`` backend's pool, by default: environments stepped one after another in Python, each with its own
+state, stay in the core's caches at 64 (a MuJoCo point mass costs a third less CPU per step than at 256, a NumPy
+env the same; the wider forward pass saves less than the cache misses cost: ``bench/bench_gym.py``)."""
 
 
 @dataclass(frozen=True)
@@ -147,6 +151,9 @@ class Backend:
         pilot runs a few policies at the run's M.
     chunk_policies : int or None
         Policies per chunk when it is fixed (None: from the memory budget, or from the environments in flight).
+    in_flight : int
+        Environments one process steps together, where the env declares no number of its own
+        (:meth:`environments_in_flight`).
     worker_processes : bool
         Its chunks run on ``rwg.workers`` processes (0: one per usable core), each stepping Python environments on
         one core. The others run in one process (the numba kernels and EnvPool on every core, PyBullet's
@@ -183,6 +190,7 @@ class Backend:
     contact_model: bool = False
     sac_env: str | None = None
     sac_simulates: str | None = None
+    in_flight: int = ENVIRONMENTS_IN_FLIGHT
 
     def open(self, task: Task) -> Runner:
         """The backend's runner for ``task`` (close it when done, or use it as a context manager)."""
@@ -190,6 +198,12 @@ class Backend:
 
     def can_simulate(self, task: Task) -> bool:
         return bool(resolve_name(self.simulates)(task))
+
+    def environments_in_flight(self, task: Task) -> int:
+        """The environments this backend steps together for ``task``: the env class's ``environments_in_flight``
+        when it declares one (an env that is slow to build and to step gains nothing from a wider forward pass, e.g.
+        Meta-World's), else :attr:`in_flight`. Only the speed depends on it, never the returns."""
+        return int(getattr(task, "environments_in_flight", None) or self.in_flight)
 
     def key_fields(self) -> dict:
         """What the backend adds to the RWG key beyond its name (its :attr:`simulator`)."""
@@ -205,7 +219,7 @@ class Backend:
             per_env = 8 * network.working_floats(task.observation_size, task.action_size, task.max_steps)
             envs = settings.chunk_memory_mb * 2**20 // per_env
             return max(1, min(envs // settings.episodes, MAX_POLICIES_AT_ONCE))
-        in_flight = environments_in_flight(task)  # each policy's episodes W at a time, the pool full
+        in_flight = self.environments_in_flight(task)  # each policy's episodes W at a time, the pool full
         return max(1, in_flight // min(settings.episodes, in_flight))
 
 
@@ -229,6 +243,7 @@ BACKENDS: dict[str, Backend] = {b.name: b for b in (
     Backend("pybullet", f"{_RWG}.pybullet_backend:PyBulletRunner", f"{_RWG}.backends:reaching_arm",
             specialised=False, calls="stepped", chunk_policies=16),
     Backend("gym", f"{_RWG}.gym_backend:GymRunner", f"{_RWG}.backends:any_task", specialised=False, calls="acting",
+            in_flight=PYTHON_ENVIRONMENTS_IN_FLIGHT,
             worker_processes=True, check=f"{_RWG}.env_checks:check_env"),
 )}
 """Every RWG backend by name, in the order ``auto`` prefers them: the one place a backend is declared."""
@@ -271,14 +286,6 @@ def seeds_each_environment(task: Task) -> bool:
 def any_task(task: Task) -> bool:
     """Every task: each has a gymnasium env (``task.make_env()``)."""
     return True
-
-
-def environments_in_flight(task: Task) -> int:
-    """The environments stepped together for ``task`` on a backend that keeps a bounded number in flight: the env
-    class's ``environments_in_flight`` when it declares one (an env that is slow to build and to step gains nothing
-    from a wider forward pass, e.g. Meta-World's), else :data:`ENVIRONMENTS_IN_FLIGHT`. Only the speed depends on
-    it, never the returns."""
-    return int(getattr(task, "environments_in_flight", None) or ENVIRONMENTS_IN_FLIGHT)
 
 
 # -- the choice of a backend ------------------------------------------------------------------------------------------

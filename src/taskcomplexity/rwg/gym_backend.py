@@ -20,15 +20,15 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.policies.families import ActingBatch
-from taskcomplexity.rwg.backends import ENVIRONMENTS_IN_FLIGHT, Plan, Runner, environments_in_flight
+from taskcomplexity.rwg.backends import Plan, Runner, backend
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.rwg.env_checks import check_observation, check_reward, reset_env, step_env
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
 
 
-def slots_per_policy(policies: int, episodes: int, in_flight: int = ENVIRONMENTS_IN_FLIGHT) -> int:
-    """W: episodes of one policy in flight at once."""
+def slots_per_policy(policies: int, episodes: int, in_flight: int) -> int:
+    """W: episodes of one policy in flight at once, ``in_flight`` environments in all (at least one per policy)."""
     return max(1, min(episodes, in_flight // max(1, policies)))
 
 
@@ -81,7 +81,7 @@ class GymRollout:
         """
         task = self.task
         n_pol = len(policies)
-        width = slots_per_policy(n_pol, episodes, environments_in_flight(task))
+        width = slots_per_policy(n_pol, episodes, backend("gym").environments_in_flight(task))
         slots = n_pol * width
         envs = self._pool(slots)
         rows = policies.indices[:, None] * (not common_initial_states)  # common: every policy resets as policy 0

@@ -23,7 +23,7 @@ import torch
 from gymnasium import spaces
 
 from taskcomplexity.policies.families import ActingBatch
-from taskcomplexity.rwg.backends import Plan, Runner, environments_in_flight
+from taskcomplexity.rwg.backends import Plan, Runner, backend
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.rwg.gym_backend import slots_per_policy
 from taskcomplexity.seeding import episode_reset_seeds
@@ -36,7 +36,7 @@ def run_vector(task, policies: ActingBatch, seed: int, episodes: int, common_ini
     (returns, steps, success) of :meth:`taskcomplexity.rwg.gym_backend.GymRollout.run`, for a task whose vector env
     seeds each environment (:func:`taskcomplexity.tasks.vectorised.seeds_each`)."""
     n_pol = len(policies)
-    width = slots_per_policy(n_pol, episodes, environments_in_flight(task))
+    width = slots_per_policy(n_pol, episodes, backend("vector").environments_in_flight(task))
     rows = policies.indices[:, None] * (not common_initial_states)
     seeds = episode_reset_seeds(seed, rows, np.arange(episodes)[None, :])
     returns = np.zeros((n_pol, episodes))
