@@ -92,8 +92,15 @@ def step_env(task: Task, env: gymnasium.Env, action, step: int, *, policy: int |
     except TaskComplexityError:
         raise
     except Exception as error:
-        call = f"step {step}" if policy is not None else f"step {step} after reset(seed={seed})"
-        raise env_raised(task, error, _place(call, policy, episode)) from error
+        raise step_raised(task, error, step, policy=policy, episode=episode, seed=seed) from error
+
+
+def step_raised(task: Task, error: Exception, step: int, *, policy: int | None = None, episode: int | None = None,
+                seed: int | None = None) -> EnvError:
+    """The :class:`EnvError` of an exception ``env.step`` raised at ``step`` (where, as :func:`step_env` says it):
+    for a loop that calls ``env.step`` itself, once per environment step."""
+    call = f"step {step}" if policy is not None else f"step {step} after reset(seed={seed})"
+    return env_raised(task, error, _place(call, policy, episode))
 
 
 def check_observation(task: Task, observation, *, seed: int | None = None, policy: int | None = None,

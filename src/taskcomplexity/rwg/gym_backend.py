@@ -19,12 +19,17 @@ import numpy as np
 import torch
 from gymnasium import spaces
 
+from taskcomplexity.errors import TaskComplexityError
 from taskcomplexity.policies.families import ActingBatch
 from taskcomplexity.rwg.backends import Plan, Runner, backend
 from taskcomplexity.rwg.chunking import ReturnChunk
-from taskcomplexity.rwg.env_checks import check_observation, check_reward, reset_env, step_env
+from taskcomplexity.rwg.env_checks import check_observation, check_reward, reset_env, step_raised
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.base import Task, decode_actions, encode_observations
+
+FLOATS = (float, np.float64)
+"""The reward types the step loop adds without calling :func:`check_reward` when finite (the checks' own fast path,
+inlined: it runs once per environment step)."""
 
 
 def slots_per_policy(policies: int, episodes: int, in_flight: int) -> int:
@@ -92,6 +97,7 @@ class GymRollout:
         limit = task.max_steps
         space_in, space_out = task.observation_space, task.action_space
         box_in, box_out = isinstance(space_in, spaces.Box), isinstance(space_out, spaces.Box)
+        box_shape = space_in.shape if box_in else None
         obs = np.zeros((slots, task.observation_size))
         inputs = list(obs)  # each slot's row of the policies' input (a view)
         indices = policies.indices.tolist()
@@ -125,9 +131,16 @@ class GymRollout:
                 for slot in active:
                     p, e = slot_policy[slot], slot_episode[slot]
                     n, step = indices[p], slot_steps[slot] + 1
-                    new, reward, terminated, truncated, info = step_env(task, envs[slot], actions[slot], step,
-                                                                        policy=n, episode=e)
-                    total = slot_return[slot] + check_reward(task, reward, n, e, step)
+                    try:  # step_env, inlined (once per environment step)
+                        new, reward, terminated, truncated, info = envs[slot].step(actions[slot])
+                    except TaskComplexityError:
+                        raise
+                    except Exception as error:
+                        raise step_raised(task, error, step, policy=n, episode=e) from error
+                    if type(reward) in FLOATS and reward - reward == 0.0:  # finite: what check_reward lets through
+                        total = slot_return[slot] + reward
+                    else:
+                        total = slot_return[slot] + check_reward(task, reward, n, e, step)
                     if terminated or truncated or step >= limit:
                         returns[p, e], steps[p, e] = total, step
                         success[p, e] = bool(info.get("is_success", info.get("success", False)))
@@ -138,7 +151,10 @@ class GymRollout:
                             running.append(slot)
                     else:
                         slot_steps[slot], slot_return[slot] = step, total
-                        encode(slot, check_observation(task, new, policy=n, episode=e, step=step))
+                        if box_in and type(new) is np.ndarray and new.shape == box_shape:  # what the check passes
+                            inputs[slot][:] = new.reshape(-1)
+                        else:
+                            encode(slot, check_observation(task, new, policy=n, episode=e, step=step))
                         running.append(slot)
                 active = running
         return returns, steps, success
