@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+import preloaded
 from taskcomplexity.extras import install_command
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -27,8 +28,8 @@ def run(script: str, args: list[str], cwd: Path, *, env: dict | None = None) -> 
     command = ([str(Path(sys.executable).parent / script)] if script.startswith("taskcomplexity-")
                else [sys.executable, str(PIPELINES / f"{script}.py")])
     environment = {k: v for k, v in os.environ.items() if k not in ("HYDRA_FULL_ERROR", "TASKCOMPLEXITY_OUTPUTS")}
-    return subprocess.run([*command, *args], cwd=cwd, capture_output=True, text=True, timeout=600,
-                          env=environment | (env or {}))
+    return preloaded.run([*command, *args], cwd=cwd, capture_output=True, text=True, timeout=600,
+                         env=environment | (env or {}))
 
 
 def refusal(done: subprocess.CompletedProcess) -> str:

@@ -19,6 +19,8 @@ from pathlib import Path
 import pytest
 from howto import Block, apply, copy_repository
 
+import preloaded
+
 
 @dataclass(frozen=True)
 class Scratch:
@@ -35,8 +37,8 @@ class Scratch:
         env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTEST_", "PYTHONPATH"))}
         env["PYTHONPATH"] = str(self.root / "src")
         env["TASKCOMPLEXITY_OUTPUTS"] = str(self.root / "outputs")
-        done = subprocess.run([sys.executable, *args], cwd=self.root, env=env, capture_output=True, text=True,
-                              timeout=timeout)
+        done = preloaded.run([sys.executable, *args], cwd=self.root, env=env, capture_output=True, text=True,
+                             timeout=timeout)
         if done.returncode != 0:
             pytest.fail(f"`python {' '.join(args)}` in the scratch copy exited {done.returncode}:\n"
                         f"{done.stdout[-6000:]}\n{done.stderr[-6000:]}", pytrace=False)

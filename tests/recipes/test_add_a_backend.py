@@ -7,7 +7,6 @@ cannot drift from the code: a line it inserts at that moved, or a file count tha
 from __future__ import annotations
 
 import re
-import subprocess
 import sys
 from pathlib import Path
 
@@ -24,6 +23,8 @@ from howto import (
     stated_counts,
     touched,
 )
+
+import preloaded
 
 PAGE = "add-a-backend.md"
 FILES = ["src/taskcomplexity/rwg/serial_backend.py", "src/taskcomplexity/rwg/backends.py",
@@ -53,8 +54,8 @@ def test_the_new_backend_gives_the_gym_backends_returns_as_printed(recipe):
     for words in runs:
         backend = next(w for w in words if w.startswith("backend=")).partition("=")[2]
         outputs = recipe / "outputs" / backend
-        done = subprocess.run([sys.executable, *words[1:], f"paths.outputs={outputs}"], cwd=recipe,
-                              env=environment(recipe), capture_output=True, text=True, timeout=600)
+        done = preloaded.run([sys.executable, *words[1:], f"paths.outputs={outputs}"], cwd=recipe,
+                             env=environment(recipe), capture_output=True, text=True, timeout=600)
         log = done.stdout + done.stderr
         assert done.returncode == 0, log[-3000:]
         assert f"rwg CartPole-v1 [{backend}]" in log, log[-3000:]
@@ -69,17 +70,17 @@ def test_the_backend_tests_pass_with_the_new_backend_registered(recipe):
     """tests/rwg/test_backends.py goes over every declaration, tests/policies/test_policies.py runs every family on the
     new backend; the RWG stage's declaration covers its module (it reads the registry), the package docstring names
     it, and the copy stays lint-clean."""
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p", "no:cacheprovider", "-p", "no:xdist",
+    done = preloaded.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p", "no:cacheprovider", "-p", "no:xdist",
                            "tests/rwg/test_backends.py", "tests/policies/test_policies.py",
                            "tests/stages/test_numerics.py::test_a_stages_declaration_covers_every_module_it_runs",
                            "tests/test_docstring_references.py::test_each_package_docstring_names_every_module_of_its_folder"],
-                          cwd=recipe, env=environment(recipe), capture_output=True, text=True, timeout=600)
+                         cwd=recipe, env=environment(recipe), capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     passed = set(re.findall(r"^PASSED tests/policies/test_policies.py::(\w+)\[mlp-serial\]", done.stdout, re.M))
     assert {"test_a_familys_batch_answers_the_calls_of_each_backend_it_runs_on",
             "test_a_family_runs_rwg_on_each_backend_it_runs_on"} <= passed, done.stdout[-3000:]
     assert re.search(r"^PASSED tests/rwg/test_backends.py::\w+\[serial\]", done.stdout, re.M), done.stdout[-3000:]
     pytest.importorskip("ruff")
-    lint = subprocess.run([sys.executable, "-m", "ruff", "check", "src"], cwd=recipe, capture_output=True, text=True,
-                          timeout=120)
+    lint = preloaded.run([sys.executable, "-m", "ruff", "check", "src"], cwd=recipe, capture_output=True, text=True,
+                         timeout=120)
     assert lint.returncode == 0, lint.stdout[-3000:]

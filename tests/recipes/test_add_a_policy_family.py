@@ -7,7 +7,6 @@ So the page cannot drift from the code: a line it inserts at that moved, or a fi
 from __future__ import annotations
 
 import re
-import subprocess
 import sys
 from pathlib import Path
 
@@ -24,6 +23,8 @@ from howto import (
     stated_counts,
     touched,
 )
+
+import preloaded
 
 ROOT = REPOSITORY
 PAGE = "add-a-policy-family.md"
@@ -63,8 +64,8 @@ def test_the_new_family_runs_rwg_on_the_kernel_and_gym_backends_as_printed(recip
     assert len(commands) == len(RUNS)
     for args, (backend, task) in zip(commands, RUNS, strict=True):
         outputs = recipe / "outputs" / backend
-        done = subprocess.run([sys.executable, *args[1:], f"paths.outputs={outputs}"], cwd=recipe,
-                              env=environment(recipe), capture_output=True, text=True, timeout=300)
+        done = preloaded.run([sys.executable, *args[1:], f"paths.outputs={outputs}"], cwd=recipe,
+                             env=environment(recipe), capture_output=True, text=True, timeout=300)
         log = done.stdout + done.stderr
         assert done.returncode == 0, log[-3000:]
         assert f"rwg {task} [{backend}]" in log and f"computed returns {task} constant normal N=10 M=4" in log, log[-3000:]
@@ -78,28 +79,28 @@ def test_the_policy_tests_pass_with_the_new_family_registered(recipe):
     """tests/policies/test_policies.py goes over every registered family: the new one answers the calls of each backend it
     runs on, is the same policy sampled alone or among others, and runs RWG on each of those backends. The RWG
     stage's declaration covers its module (tests/stages/test_numerics.py), and the copy stays lint-clean."""
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p", "no:cacheprovider", "-p", "no:xdist",
+    done = preloaded.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p", "no:cacheprovider", "-p", "no:xdist",
                            "tests/policies/test_policies.py",
                            "tests/stages/test_numerics.py::test_a_stages_declaration_covers_every_module_it_runs",
                            "tests/test_docstring_references.py::test_each_package_docstring_names_every_module_of_its_folder"],
-                          cwd=recipe, env=environment(recipe), capture_output=True, text=True, timeout=300)
+                         cwd=recipe, env=environment(recipe), capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     passed = set(re.findall(r"^PASSED tests/policies/test_policies.py::(\w+)\[constant-(\w+)\]", done.stdout, re.M))
     for backend in ("batched", "pybullet", "gym", "kernel"):
         assert {("test_a_familys_batch_answers_the_calls_of_each_backend_it_runs_on", backend),
                 ("test_a_family_runs_rwg_on_each_backend_it_runs_on", backend)} <= passed, done.stdout[-3000:]
     pytest.importorskip("ruff")
-    lint = subprocess.run([sys.executable, "-m", "ruff", "check", "src"], cwd=recipe, capture_output=True, text=True,
-                          timeout=120)
+    lint = preloaded.run([sys.executable, "-m", "ruff", "check", "src"], cwd=recipe, capture_output=True, text=True,
+                         timeout=120)
     assert lint.returncode == 0, lint.stdout[-3000:]
 
 
 def test_a_family_a_backend_cannot_run_is_refused_in_one_line_as_the_page_prints_it(tmp_path):
     """``network=dmp backend=gym`` on an arm: exit 2, the page's one error line, nothing computed."""
     (printed,) = [text.strip() for text in fenced("text") if text.startswith("error: ")]
-    done = subprocess.run([sys.executable, str(ROOT / "pipelines" / "rwg.py"), "arm=two_link", "network=dmp",
+    done = preloaded.run([sys.executable, str(ROOT / "pipelines" / "rwg.py"), "arm=two_link", "network=dmp",
                            "backend=gym", f"paths.outputs={tmp_path}"], cwd=tmp_path, env=environment(ROOT),
-                          capture_output=True, text=True, timeout=300)
+                         capture_output=True, text=True, timeout=300)
     assert done.returncode == 2, done.stderr[-3000:]
     assert done.stderr.strip().splitlines() == [printed]
     assert not list((tmp_path / "cache").glob("rwg/*"))

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -12,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import preloaded
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.report.sweep import JOB_FILE, cell_names, sweep_jobs, write_sweep_report
 from taskcomplexity.rwg import RWGSettings
@@ -130,8 +130,8 @@ def test_a_multirun_of_studies_ends_with_the_sweep_report(tmp_path):
     command = [sys.executable, str(ROOT / "pipelines" / "study.py"), "-m", "study=classic_control",
                "network=pic_linear,pic_h1_4", "study.policies=10", "study.episodes=4", "metrics.resamples=10",
                "diagnostics.repeats=2", f"paths.outputs={tmp_path}"]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=1200, cwd=tmp_path,
-                          env={**os.environ, "HYDRA_FULL_ERROR": "0"})
+    done = preloaded.run(command, capture_output=True, text=True, timeout=1200, cwd=tmp_path,
+                         env={**os.environ, "HYDRA_FULL_ERROR": "0"})
     assert done.returncode == 0, done.stderr[-2000:]
     (readme,) = tmp_path.glob("runs/multirun/*/*/sweep_report/README.md")
     assert f"Sweep report: {readme.resolve()}" in done.stdout

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import preloaded
 from taskcomplexity.errors import TaskComplexityError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
@@ -177,7 +178,7 @@ def rwg(lab: Path, env: str) -> subprocess.CompletedProcess:
                f"rwg.policies={POLICIES}", f"rwg.episodes={EPISODES}", f"paths.outputs={lab / 'outputs'}"]
     environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
     environment["PYTHONPATH"] = os.pathsep.join([str(lab), str(ROOT / "src")])
-    return subprocess.run(command, cwd=lab, env=environment, capture_output=True, text=True, timeout=300)
+    return preloaded.run(command, cwd=lab, env=environment, capture_output=True, text=True, timeout=300)
 
 
 PROGRESS = re.compile(r"^rwg \S+ \[gym\]: +\d+%\|.*\| \d+/\d+ \[")

@@ -8,6 +8,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import preloaded
+
 ROOT = Path(__file__).resolve().parents[2]
 
 # Runs pipelines/rwg.py as `python pipelines/rwg.py …` would, after injecting a NumPy shape bug into the
@@ -30,7 +32,7 @@ def run(args: list[str], tmp_path: Path, *, code: str | None = None, env: dict |
     script = str(ROOT / "pipelines" / "rwg.py")
     command = [sys.executable, "-c", code.format(script=script), *args] if code else [sys.executable, script, *args]
     environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"} | (env or {})
-    return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300, env=environment)
+    return preloaded.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300, env=environment)
 
 
 def test_a_shape_bug_in_a_stage_keeps_its_traceback_and_exits_1(tmp_path):
@@ -87,8 +89,8 @@ def test_unwritable_output_and_cache_paths_are_one_line_however_given(tmp_path):
 
 def study(args: list[str], tmp_path: Path) -> subprocess.CompletedProcess:
     environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
-    return subprocess.run([sys.executable, str(ROOT / "pipelines" / "study.py"), *args], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=300, env=environment)
+    return preloaded.run([sys.executable, str(ROOT / "pipelines" / "study.py"), *args], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300, env=environment)
 
 
 def test_an_empty_output_or_cache_path_is_one_line_and_nothing_is_written_at_the_root(tmp_path):

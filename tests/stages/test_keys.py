@@ -10,12 +10,12 @@ import dataclasses
 import json
 import os
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+import preloaded
 import taskcomplexity
 from taskcomplexity.stages import keys
 from taskcomplexity.study.chain import CHAIN
@@ -50,8 +50,8 @@ print(json.dumps(out))
 
 
 def _keys_from(source_root: Path) -> dict:
-    done = subprocess.run([sys.executable, "-c", KEYS_SCRIPT, *STAGES], env={**os.environ, "PYTHONPATH": str(source_root)},
-                          capture_output=True, text=True, check=True, timeout=300)
+    done = preloaded.run([sys.executable, "-c", KEYS_SCRIPT, *STAGES], env={**os.environ, "PYTHONPATH": str(source_root)},
+                         capture_output=True, text=True, check=True, timeout=300)
     return json.loads(done.stdout.splitlines()[-1])
 
 

@@ -7,13 +7,13 @@ found through Hydra's search path; its one relation is judged by the verdict.
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
 import pandas as pd
 
+import preloaded
 from taskcomplexity.verdict import OUTCOMES
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -66,7 +66,7 @@ def test_a_researchers_own_env_and_study_run_through_to_a_verdict(tmp_path):
     command = [sys.executable, str(ROOT / "pipelines" / "study.py"), f"hydra.searchpath=[file://{tmp_path / 'studies'}]",
                "study=lab", "rwg.policies=24", "rwg.episodes=6", "metrics.bins=500", "metrics.resamples=10",
                "sac.enabled=false", f"paths.outputs={outputs}"]
-    done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    done = preloaded.run(command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "Report:" in done.stdout
     (verdict,) = (pd.read_csv(path) for path in (outputs / "reports" / "lab").glob("*/tables/verdict_tidy.csv"))

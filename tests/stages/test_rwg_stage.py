@@ -3,7 +3,6 @@ however it is computed (in chunks, in shards, resumed), so that every stage down
 
 from __future__ import annotations
 
-import subprocess
 import sys
 from pathlib import Path
 
@@ -11,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import preloaded
 from taskcomplexity.commands import metrics as metrics_command
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters
 from taskcomplexity.rwg import BACKENDS, RWGSettings
@@ -130,10 +130,10 @@ def test_multirun_sweep_writes_one_artefact_per_task_and_then_only_hits_the_cach
         sys.executable, str(ROOT / "pipelines" / "rwg.py"), "-m",
         "arm=one_link_1m0,two_link", "reward=dense,sparse", "experiment=smoke", f"paths.outputs={tmp_path}",
     ]
-    first = subprocess.run(command, capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    first = preloaded.run(command, capture_output=True, text=True, cwd=tmp_path, timeout=600)
     assert first.returncode == 0, first.stderr[-2000:]
     assert len(list((tmp_path / "cache" / "rwg").glob("*/returns.parquet"))) == 4
-    second = subprocess.run(command, capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    second = preloaded.run(command, capture_output=True, text=True, cwd=tmp_path, timeout=600)
     assert second.returncode == 0
     log = second.stdout + second.stderr
     assert log.count("cache hit") >= 4 and "computed" not in log

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import preloaded
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.cache import Cache, file_digest
@@ -34,7 +35,7 @@ METRICS = str(ROOT / "pipelines" / "metrics.py")
 
 
 def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, timeout=600)
+    return preloaded.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, timeout=600)
 
 
 def request(**settings) -> RWGRequest:

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import torch
 
+import preloaded
 from taskcomplexity.rl.factories import make_actor_critic
 from taskcomplexity.rl.snapshots import ActorSnapshots, actor_layers
 
@@ -24,8 +25,8 @@ ROOT = Path(__file__).resolve().parents[2]
 def pipeline(name: str, args: list[str], cwd: Path) -> subprocess.CompletedProcess:
     """``python pipelines/<name>.py <args>`` as a user runs it (no HYDRA_FULL_ERROR)."""
     environment = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
-    return subprocess.run([sys.executable, str(ROOT / "pipelines" / f"{name}.py"), *args], cwd=cwd,
-                          env=environment, capture_output=True, text=True, timeout=300)
+    return preloaded.run([sys.executable, str(ROOT / "pipelines" / f"{name}.py"), *args], cwd=cwd,
+                         env=environment, capture_output=True, text=True, timeout=300)
 
 
 # -- a study's own N, M ------------------------------------------------------------------------------

@@ -6,12 +6,13 @@ of the second run's verdict table."""
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
 
 import pandas as pd
+
+import preloaded
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -31,7 +32,7 @@ def study(tmp_path: Path, *overrides: str) -> Path:
     """Run the generated study with ``overrides``; the directory of the report it wrote."""
     command = [sys.executable, str(ROOT / "pipelines" / "study.py"), f"hydra.searchpath=[file://{tmp_path}/conf]",
                "study=generated", "metrics.resamples=20", f"paths.outputs={tmp_path}/outputs", *overrides]
-    done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    done = preloaded.run(command, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     report = next(line for line in done.stdout.splitlines() if line.startswith("Report: "))
     return Path(report.removeprefix("Report: ")).parent

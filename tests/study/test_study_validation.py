@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 from omegaconf import open_dict
 
+import preloaded
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.study.run import run_study
 
@@ -54,13 +55,12 @@ def test_sizes_the_estimators_cannot_use_are_refused_before_any_work(compose_con
 
 
 def test_a_study_without_sac_budgets_refuses_a_typed_sac_enabled_in_one_line(tmp_path):
-    import subprocess
     import sys
 
     root = Path(__file__).resolve().parents[2]
-    done = subprocess.run([sys.executable, str(root / "pipelines" / "study.py"), "study=classic_control",
+    done = preloaded.run([sys.executable, str(root / "pipelines" / "study.py"), "study=classic_control",
                            "sac.enabled=true", f"paths.outputs={tmp_path}"], capture_output=True, text=True,
-                          timeout=600, cwd=tmp_path)
+                         timeout=600, cwd=tmp_path)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [
         "error: sac.enabled=true: study classic_control gives no SAC budget (sac_steps) to any task, so it has no "
