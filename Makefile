@@ -121,7 +121,7 @@ classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_contro
 # pytest-xdist: one worker per core, each test file on one worker (its module fixtures are computed once).
 XDIST := -n auto --dist loadfile
 
-test: $(STAMP) ## run the test suite (CI runs it, then make test-cluster and make test-avx2)
+test: $(STAMP) ## run the test suite (CI runs it, make test-avx2 and make test-cluster)
 	$(PY) -m pytest -q -m "not slow and not cluster" $(XDIST)
 
 # The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
@@ -158,8 +158,11 @@ CLUSTER_TESTS ?= cluster
 test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the local cluster (starts it; make cluster-down stops it)
 	$(PY) -m pytest -q -m "$(CLUSTER_TESTS)"
 
-test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass)
-	$(PY) tests/cpu_paths.py -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)
+# numba's cache of the AVX2 path's kernels (kept beside .venv's packages: a second run loads them).
+AVX2_NUMBA_CACHE := $(VENV)/numba-avx2
+
+test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI runs it beside make install)
+	$(PY) tests/cpu_paths.py --numba-cache $(AVX2_NUMBA_CACHE) -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)
 
 test-all: $(STAMP) cluster-up ## every test, including the slow learning checks and the cluster's
 	$(PY) -m pytest -q

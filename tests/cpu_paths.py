@@ -14,6 +14,7 @@ AVX2 path. On an AVX2 machine the second run takes the path it already has. Run 
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import tempfile
@@ -87,11 +88,17 @@ def describe() -> str:
 
 
 def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="cpu_paths.py", usage="%(prog)s [--numba-cache DIR] -- COMMAND [ARG…]",
+                                     description="Run COMMAND on the AVX2 path.")
+    parser.add_argument("--numba-cache", metavar="DIR",
+                        help="where numba caches the AVX2 kernels (default: a new temporary directory); a "
+                             "directory kept between runs loads them instead of compiling them again")
     if "--" not in argv or argv.index("--") == len(argv) - 1:
-        print("usage: cpu_paths.py -- COMMAND [ARG…]  (runs COMMAND on the AVX2 path)", file=sys.stderr)
-        return 2
+        parser.error("no COMMAND after --")
+    options = parser.parse_args(argv[:argv.index("--")])
     command = argv[argv.index("--") + 1:]
-    cache = tempfile.mkdtemp(prefix="numba-avx2-")
+    cache = os.path.abspath(options.numba_cache) if options.numba_cache else tempfile.mkdtemp(prefix="numba-avx2-")
+    os.makedirs(cache, exist_ok=True)
     os.environ.update(avx2_environment(cache))
     os.execvp(command[0], command)
 

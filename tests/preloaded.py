@@ -44,7 +44,7 @@ PRELOAD = ["numpy", "torch", "scipy.stats", "pandas", "pyarrow.parquet", "hydra"
            "numba", "tqdm", "matplotlib"]
 """What the fork server imports once: the libraries that most commands import and that take most of their start."""
 
-PER_COMMAND = ("TASKCOMPLEXITY_", "PYTHONPATH", "PYTEST_", "HYDRA_FULL_ERROR", "COLUMNS", "LINES")
+PER_COMMAND = ("TASKCOMPLEXITY_", "PYTHONPATH", "PYTEST_", "HYDRA_FULL_ERROR", "SLURM_", "COLUMNS", "LINES")
 """Environment variables (names or prefixes) a command may set to its own values and still be forked: none of
 the preloaded libraries reads them when imported."""
 

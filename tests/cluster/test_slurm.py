@@ -26,6 +26,7 @@ from pathlib import Path
 
 import pytest
 
+import preloaded
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
 from taskcomplexity.rwg import RWGSettings
 from taskcomplexity.stages.rwg_stage import RWGRequest
@@ -61,7 +62,7 @@ def environment() -> dict:
 
 
 def run(*args: str, env: dict, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=timeout)
+    return preloaded.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd, env=env, timeout=timeout)
 
 
 def start(*args: str, env: dict, cwd: Path) -> subprocess.Popen:

@@ -346,6 +346,9 @@ def main() -> None:
         print(f"numba kernels: already compiled ahead for these sources on this CPU ({stamp_path()}); nothing to do")
         return
     # The classic-control protocol's CartPole-v0 is chosen, not stale (as in the tests' filter, pyproject.toml).
+    # gymnasium puts a filter of its own first when it is imported: imported first, it leaves this one first.
+    import gymnasium  # noqa: F401
+
     warnings.filterwarnings("ignore", message=".*The environment CartPole-v0 is out of date",
                             category=DeprecationWarning)
     started = time.perf_counter()
