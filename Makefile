@@ -10,7 +10,7 @@ DOCS_STAMP := $(VENV)/.extra-dev,docs
 TORCH := torch==2.13.0
 
 .DEFAULT_GOAL := help
-.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost manipulation manipulation-cost manipulation-cluster test-manipulation atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
+.PHONY: help install run quick paper paper-jobs beyond classic classic-sweep atlas atlas-cost manipulation manipulation-cost manipulation-cluster test-manipulation atlas-bag atlas-cluster cluster-up cluster-down cluster-cost test test-atlas test-cluster test-avx2 install-avx2 test-all lint docs docs-serve bench fidelity calibrate-contacts clean clean-cache cache-list
 
 # One column of names as wide as the longest, the descriptions wrapped to the terminal under their own column.
 help: ## list the targets
@@ -118,10 +118,11 @@ atlas-bag: $(ATLAS) ## the 56 cells of Furuta et al.'s bag on make atlas's study
 classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_control as a multirun + its sweep report (ARGS=… adds overrides, e.g. a launcher)
 	$(PY) pipelines/study.py -m study=classic_control network=$(CLASSIC_NETWORKS) prior=$(CLASSIC_PRIORS) $(ARGS)
 
-# pytest-xdist: one worker per core, each test file on one worker (its module fixtures are computed once).
-XDIST := -n auto --dist loadfile
+# pytest-xdist: one worker per core, each test file on one worker (its module fixtures are computed once), the
+# files in the order tests/conftest.py collects them (the longest first).
+XDIST := -n auto --dist loadfile --no-loadscope-reorder
 
-test: $(STAMP) ## run the test suite (CI runs it, make test-avx2 and make test-cluster)
+test: $(STAMP) ## run the test suite (CI runs it, then make test-cluster and make test-avx2)
 	$(PY) -m pytest -q -m "not slow and not cluster" $(XDIST)
 
 # The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
@@ -161,8 +162,11 @@ test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the l
 # numba's cache of the AVX2 path's kernels (kept beside .venv's packages: a second run loads them).
 AVX2_NUMBA_CACHE := $(VENV)/numba-avx2
 
-test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI runs it beside make install)
+test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass)
 	$(PY) tests/cpu_paths.py --numba-cache $(AVX2_NUMBA_CACHE) -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)
+
+install-avx2: $(STAMP) ## compile the AVX2 path's kernels ahead, as make install does the native ones (into .venv/numba-avx2, what make test-avx2 loads)
+	$(PY) tests/cpu_paths.py --numba-cache $(AVX2_NUMBA_CACHE) -- $(PY) -m taskcomplexity.commands.compilation
 
 test-all: $(STAMP) cluster-up ## every test, including the slow learning checks and the cluster's
 	$(PY) -m pytest -q

@@ -31,6 +31,21 @@ def compose_config(tmp_path):
     GlobalHydra.instance().clear()
 
 
+LONGEST_FIRST = ("tests/test_docs_commands.py", "tests/recipes/", "tests/stages/test_scale_out.py",
+                 "tests/study/test_study_chain.py", "tests/commands/test_refusals.py", "tests/rwg/test_envpool_backend.py")
+"""The files that take longest on a pytest-xdist worker (a file runs whole on one, ``--dist loadfile``), collected
+first, so that ``make test`` does not end on one worker running one of them while the other waits. Only the order
+of files changes (``--no-loadscope-reorder`` keeps it)."""
+
+
+def pytest_collection_modifyitems(config, items):
+    def rank(item) -> int:
+        path = item.nodeid.split("::")[0]
+        return next((i for i, start in enumerate(LONGEST_FIRST) if path.startswith(start)), len(LONGEST_FIRST))
+
+    items.sort(key=rank)  # stable: the order within a file, and among the other files, is pytest's
+
+
 def pytest_terminal_summary(terminalreporter):
     """The kernels this run computed with (numba's target, NumPy's dispatch, torch's capability, the BLAS), in the
     summary that ``-q`` keeps: CI runs the suite on two code paths and its log says which was which."""

@@ -116,7 +116,7 @@ INSTALLS = {
 }
 """Blocks whose targets install an extra into ``.venv`` where it is not installed yet (marker ``installs``): pip
 reinstalls the package, and a process that imports it meanwhile fails. CI runs the other cluster tests beside
-``make test``, then installs the extras these need and runs them (``.ci/run``);
+``make test``, then installs the extras these need and runs them beside the AVX2 pass (``.ci/run``);
 ``test_the_blocks_that_install_an_extra_are_marked`` keeps the list whole."""
 
 DRIFT = '''"""The tutorial's own env: a point drifting on a line, pushed by the action (test_docs_commands)."""

@@ -11,7 +11,11 @@ distribution, not gymnasium's numbers. Two checks per id:
   reversed order) is refused on Hopper (p ≈ 1e-57).
 - **Step for step** where EnvPool aligns its MuJoCo tasks with gymnasium's (the planar walkers, whose observation
   and ``info["x_position"]`` give the whole state): gymnasium's env set to EnvPool's initial state follows it for
-  ``ALIGNED_STEPS`` steps on the same actions.
+  ``ALIGNED_STEPS`` steps on the same actions. When gymnasium's MuJoCo is another version than EnvPool's build,
+  the two may part at a step where gymnasium's env makes a new contact, and are not compared after it: two MuJoCo
+  versions can resolve a new contact differently (Hopper-v5 on 3.3.0 and on EnvPool 1.2.5's 3.6.0 part at the
+  foot's first touch, step 9, and follow each other step for step when gymnasium runs on 3.6.0 too; HalfCheetah
+  and Walker2d make new contacts from step 3 and stay together).
 
 The checks need the atlas extra (``pip install -e '.[atlas]'``) and are skipped without it.
 """
@@ -136,16 +140,38 @@ def test_envpool_follows_gymnasium_step_for_step_from_the_same_state(env_id):
     nq = env.unwrapped.model.nq
     env.unwrapped.set_state(np.concatenate([info["x_position"], obs[0, :nq - 1]]), obs[0, nq - 1:])
     rng = np.random.default_rng(0)
+    same_mujoco = _envpools_mujoco(envpool) == _gymnasiums_mujoco()
+    data = env.unwrapped.data
     for _ in range(ALIGNED_STEPS):
         action = rng.uniform(-1, 1, env.action_space.shape)
+        touching = data.ncon
         theirs, reward, terminated, _, _ = pool.step(action[None], env_id=np.array([0]))
         ours, our_reward, our_terminated, _, _ = env.step(action)
-        assert np.max(np.abs(theirs[0] - ours)) < OBS_TOLERANCE
+        apart = np.max(np.abs(theirs[0] - ours)) >= OBS_TOLERANCE
+        if apart and not same_mujoco and data.ncon > touching:
+            break  # a new contact, which another version of MuJoCo may resolve otherwise (module docstring)
+        assert not apart
         assert abs(reward[0] - our_reward) < REWARD_TOLERANCE and bool(terminated[0]) == our_terminated
         if our_terminated:
             break
     env.close()
     pool.close()
+
+
+def _envpools_mujoco(envpool) -> str:
+    """The version of the MuJoCo build inside EnvPool's MuJoCo tasks (``mj_versionString`` of its library)."""
+    import ctypes
+    from pathlib import Path
+
+    library = ctypes.CDLL(str(Path(envpool.__file__).parent / "mujoco" / "mujoco_gym_envpool.so"))
+    library.mj_versionString.restype = ctypes.c_char_p
+    return library.mj_versionString().decode()
+
+
+def _gymnasiums_mujoco() -> str:
+    import mujoco
+
+    return mujoco.__version__
 
 
 def test_backend_envpool_is_refused_in_one_line_where_it_cannot_run(compose_config):

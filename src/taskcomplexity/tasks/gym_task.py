@@ -102,9 +102,15 @@ class GymTask:
 
     def identity(self) -> dict:
         """The env id, its constructor arguments, the resolved episode limit and a digest of the source file
-        that defines the env (so an edit to a researcher's env is a new task); not the display name."""
-        return {"env_id": self.env_id, "kwargs": dict(sorted(self.kwargs.items())), "max_steps": self.max_steps,
-                "source": _source_digest(self.spec)}
+        that defines the env (so an edit to a researcher's env is a new task); for an env MuJoCo simulates, the
+        versions of MuJoCo (and DM Control, whose models ship with it) that step it: two MuJoCo versions can take
+        one state to different next states once bodies touch (gymnasium's Hopper-v5 on MuJoCo 3.3.0 and 3.6.0 part
+        at its first contact). Not the display name."""
+        identity = {"env_id": self.env_id, "kwargs": dict(sorted(self.kwargs.items())), "max_steps": self.max_steps,
+                    "source": _source_digest(self.spec)}
+        if _simulates_with_mujoco(self.env_id, self.spec):
+            identity["simulator"] = _simulator_versions(dm_control=_is_dm_control(self.env_id, self.spec))
+        return identity
 
     # -- what the env is ---------------------------------------------------------------------
     @functools.cached_property
@@ -243,6 +249,20 @@ def _simulates_with_mujoco(env_id: str, spec: gymnasium.envs.registration.EnvSpe
     """Whether the env runs on MuJoCo: gymnasium's MuJoCo tasks, and DM Control's through Shimmy."""
     entry = spec.entry_point if isinstance(spec.entry_point, str) else ""
     return "mujoco" in entry or _is_dm_control(env_id, spec)
+
+
+def _simulator_versions(*, dm_control: bool) -> str:
+    """The installed versions of MuJoCo (and of DM Control) that simulate an env, e.g. ``"mujoco 3.3.0"``."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    names = ("mujoco", "dm_control") if dm_control else ("mujoco",)
+    found = []
+    for name in names:
+        try:
+            found.append(f"{name} {version(name)}")
+        except PackageNotFoundError:
+            found.append(f"{name} missing")
+    return ", ".join(found)
 
 
 @functools.cache
