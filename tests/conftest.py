@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import subprocess
 from pathlib import Path
 
@@ -29,6 +30,19 @@ def compose_config(tmp_path):
 
     yield _compose
     GlobalHydra.instance().clear()
+
+
+@pytest.fixture(autouse=True)
+def _environment_restored():
+    """Each test leaves ``os.environ`` as it found it: an entry point called in the test's process sets variables
+    for its own subprocesses (``PYTHONWARNINGS``, :func:`taskcomplexity.processes.quiet_tracker`), which would
+    otherwise reach every later test of the worker, and make its commands differ from the fork server's
+    environment (``tests/preloaded.py``)."""
+    before = dict(os.environ)
+    yield
+    if os.environ != before:
+        os.environ.clear()
+        os.environ.update(before)
 
 
 LONGEST_FIRST = ("tests/test_docs_commands.py", "tests/recipes/", "tests/stages/test_scale_out.py",

@@ -234,3 +234,25 @@ def test_an_edit_to_the_envs_source_makes_it_a_new_task(tmp_path, monkeypatch):
     assert {k: v for k, v in before.items() if k != "source"} == {k: v for k, v in after.items() if k != "source"}
     del gymnasium.registry["EditedStill-v0"]
     sys.modules.pop("edited_lab", None)
+
+
+def test_the_mujoco_version_that_steps_an_env_is_part_of_its_identity(monkeypatch):
+    """Two MuJoCo versions can take one state to different next states at a new contact (EnvPool's 3.6.0 and
+    gymnasium's 3.3.0 part on Hopper-v5's first touch): a MuJoCo task's identity names the version that steps it,
+    an env MuJoCo does not simulate names none."""
+    import importlib.metadata
+
+    pytest.importorskip("mujoco", reason="the mujoco extra is not installed")
+
+    installed = importlib.metadata.version
+
+    def version(name: str) -> str:
+        if name == "mujoco":
+            return "9.9.9"
+        return installed(name)
+
+    hopper = GymTask("Hopper-v5").identity()
+    assert hopper["simulator"].startswith("mujoco ")
+    assert "simulator" not in GymTask("CartPole-v1").identity()
+    monkeypatch.setattr(importlib.metadata, "version", version)
+    assert GymTask("Hopper-v5").identity()["simulator"] == "mujoco 9.9.9" != hopper["simulator"]
