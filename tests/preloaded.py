@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import atexit
 import itertools
+import json
 import multiprocessing
 import os
 import runpy
@@ -103,11 +104,11 @@ def _server():
     """multiprocessing's fork server for this process, started on first use with :data:`PRELOAD` imported."""
     if "context" not in _served:
         plain = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-        probe = subprocess.run([sys.executable, "-c", "import sys; print(repr(sys.path[1:]))"], env=plain,
-                               capture_output=True, text=True, check=True)
+        probe = subprocess.run([sys.executable, "-c", "import json, sys; print(json.dumps(sys.path[1:]))"],
+                               env=plain, capture_output=True, text=True, check=True)
         context = multiprocessing.get_context("forkserver")
         context.set_forkserver_preload(PRELOAD)
-        _served.update(context=context, env=dict(os.environ), path=eval(probe.stdout))  # a repr of strings
+        _served.update(context=context, env=dict(os.environ), path=json.loads(probe.stdout))
     return _served["context"]
 
 
