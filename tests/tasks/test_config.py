@@ -230,6 +230,27 @@ def test_a_studys_policy_family_applies_unless_the_command_line_or_the_entry_cho
     assert list(node.network.hidden) == [8] and node.network.activation == "tanh"
 
 
+def test_the_entries_of_a_study_that_choose_alike_compose_once_each_into_a_config_of_its_own(compose_config,
+                                                                                           monkeypatch):
+    from taskcomplexity.study import compose
+    from taskcomplexity.study.plan import study_requests
+    from taskcomplexity.study_data import study_from_config
+
+    real, calls = compose._compose, []
+    monkeypatch.setattr(compose, "_compose", lambda overrides, where: calls.append(list(overrides))
+                        or real(overrides, where))
+    study = study_from_config({"name": "s", "tasks": [{"env_id": "CartPole-v1"}, {"env_id": "Acrobot-v1"},
+                                                      {"env_id": "Pendulum-v1", "max_steps": 50}]})
+    pairs = study_requests(compose_config("experiment=smoke"), study)
+    assert calls == [["task=gym"]]  # three gym ids: one composition
+    assert [(r.task.env_id, r.task.max_steps) for _, r in pairs] == [("CartPole-v1", 500), ("Acrobot-v1", 500),
+                                                                    ("Pendulum-v1", 50)]
+    composer = compose.Composer()
+    first, second = composer(["task=gym"], "study.tasks[0]"), composer(["task=gym"], "study.tasks[1]")
+    first.task.env_id = "Pendulum-v1"  # each caller changes a config of its own
+    assert second.task.env_id != "Pendulum-v1"
+
+
 def test_an_unknown_study_network_is_one_line_naming_the_options(compose_config):
     from taskcomplexity.study.plan import study_requests
 

@@ -39,7 +39,7 @@ from taskcomplexity.stages.sac_stage import (
     sac_settings_from_config,
     study_sac_curves,
 )
-from taskcomplexity.study.compose import entry_base, entry_config, study_family
+from taskcomplexity.study.compose import Composer, entry_base, entry_config, study_family
 from taskcomplexity.study.plan import cache_from_config, study_from
 from taskcomplexity.tasks.from_config import task_from_config
 from taskcomplexity.tasks.spec import TaskSpec
@@ -108,10 +108,10 @@ def study_entry_for(cfg: Any, task) -> Any:
     ``identity()``. The command line's overrides are not applied to the entries: they chose ``task``
     (``arm=two_link`` picks the study's two-link entry; a modified arm matches no entry).
     """
-    study, base = study_from(cfg), entry_base(plain(cfg))
+    study, base, composer = study_from(cfg), entry_base(plain(cfg)), Composer()
     wanted = (type(task).__name__, task.identity())
     for i, entry in enumerate(study.tasks):
-        candidate = task_from_config(entry_config(base, entry, [], f"study.tasks[{i}]"))
+        candidate = task_from_config(entry_config(base, entry, [], f"study.tasks[{i}]", None, composer))
         if (type(candidate).__name__, candidate.identity()) == wanted:
             return entry
     return None
