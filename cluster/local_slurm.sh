@@ -2,6 +2,7 @@
 # A single-node SLURM cluster on this machine: the scheduler the cluster path (hydra/launcher=cluster) is tested on.
 #
 #   cluster/local_slurm.sh up       install (Debian's packages) and start it; does nothing when it runs already
+#   cluster/local_slurm.sh install  install Debian's packages only (what up does first, when they are missing)
 #   cluster/local_slurm.sh down     cancel its jobs and stop the daemons it started (by their PID files)
 #   cluster/local_slurm.sh status   its daemons, its node and partition, the commands' configuration
 #
@@ -242,7 +243,8 @@ status() {
 
 case "${1:-}" in
     up) up ;;
+    install) install_packages ;;
     down) down ;;
     status) status ;;
-    *) echo "usage: $0 up|down|status" >&2; exit 2 ;;
+    *) echo "usage: $0 up|install|down|status" >&2; exit 2 ;;
 esac
