@@ -30,6 +30,7 @@ def test_every_task_of_the_study_is_priced_on_its_backend_and_the_table_adds_up(
         assert 1 <= c.mean_steps <= c.limit and c.chunks >= 1 and c.episode_cpu >= 0 and c.chunk_cpu >= 0
     assert costs[1].mean_steps == 200  # Pendulum never ends an episode before its limit
     assert lines[0].startswith("RWG cost of study classic_control at N = 400 × M = 50, from two pilots per task")
+    assert [line.split()[2:4] for line in lines[3:8]] == [["2×50,", "6×50"]] * 5  # each task's pilots, as they ran
     total = sum(c.cpu_seconds for c in costs)
     assert any(line.startswith(f"total: {total / 3600:.2f} CPU-hours") for line in lines)
     assert lines[-2] == (f"as jobs: 5 tasks × rwg.shards=4 = 20 jobs, each starting a fresh process (5.0 CPU-s on "
@@ -76,3 +77,17 @@ def test_a_jobs_start_up_is_measured_by_starting_one():
     from taskcomplexity.commands.cost import job_start_cpu
 
     assert 0.5 < job_start_cpu("CartPole-v0", ["study=classic_control", "study.policies=1000", "rwg.shards=8"]) < 120
+
+
+@pytest.mark.parametrize(("backend", "episodes", "pilots"), [
+    ("gym", 100, ((16, 2), (16, 6))), ("gym", 4, ((16, 2), (16, 4))), ("gym", 2, ((16, 2), (16, 2))),
+    ("envpool", 4, ((10, 2), (10, 4))), ("kernel", 4, ((2, 4), (6, 4)))])
+def test_no_pilot_runs_more_episodes_than_the_run_it_prices(backend, episodes, pilots):
+    from types import SimpleNamespace
+
+    from taskcomplexity.commands.cost import pilot_sizes
+
+    policies = 10 if backend == "envpool" else 1000
+    request = SimpleNamespace(backend=backend, settings=SimpleNamespace(policies=policies, episodes=episodes),
+                              task=SimpleNamespace(max_steps=200))
+    assert pilot_sizes(request) == pilots

@@ -8,8 +8,9 @@ Per task of the composed study (the same overrides as the run it prices), on the
 pilots of its first policies, each in one chunk (:func:`pilot_sizes`): on a backend whose chunks hold a fixed number
 of policies (``envpool``: one environment each) a chunk's, on the others (``gym``, ``vector``) ``PILOT_POLICIES``
 policies (fewer for episodes longer than 200 steps), run ``PILOT_EPISODES[0]`` and then ``PILOT_EPISODES[1]``
-episodes; on a backend that steps a chunk's P × M episodes as one batch (``kernel``, ``batched``), 2 and then 6
-policies run the run's M. A chunk's CPU time is a fixed
+episodes, never more than the run's M (a run is not priced by pilots longer than itself); on a backend that steps a
+chunk's P × M episodes as one batch (``kernel``, ``batched``), 2 and then 6 policies run the run's M (the table
+gives each task's pilots). A chunk's CPU time is a fixed
 part (making its environments, sampling its policies) plus a part per episode, so the two pilots give both: CPU-s
 per episode = the difference of their CPU over the difference of their episodes, and the fixed part = the first
 pilot's CPU less its episodes' share. The estimate is then N × M × CPU-s per episode + the run's chunks × the fixed
@@ -70,6 +71,8 @@ class TaskCost:
         CPU-s per episode and per chunk (fixed part), from the pilots.
     chunks : int
         The run's chunks.
+    pilots : tuple of two (policies, episodes)
+        The sizes of the two pilots that priced it (:func:`pilot_sizes`).
     """
 
     task: str
@@ -81,6 +84,7 @@ class TaskCost:
     episode_cpu: float
     chunk_cpu: float
     chunks: int
+    pilots: tuple[tuple[int, int], tuple[int, int]] = ((0, 0), (0, 0))
 
     @property
     def cpu_seconds(self) -> float:
@@ -118,7 +122,8 @@ def pilot_sizes(request) -> tuple[tuple[int, int], tuple[int, int]]:
     """(policies, episodes) of the two pilots of ``request``: on a backend that steps a chunk's P × M episodes at
     once, 2 and up to 6 policies at the run's M (a chunk's cost is its batch's); on one whose chunks hold a fixed
     number of policies, a chunk's, else ``PILOT_POLICIES`` (fewer for episodes longer than 200 steps:
-    :data:`PILOT_STEPS`), at ``PILOT_EPISODES``."""
+    :data:`PILOT_STEPS`), at ``PILOT_EPISODES`` but never more than the run's M (at M = 2 the two pilots are alike,
+    and the second prices the episode alone)."""
     from taskcomplexity.rwg.backends import BACKENDS
 
     settings = request.settings
@@ -130,7 +135,8 @@ def pilot_sizes(request) -> tuple[tuple[int, int], tuple[int, int]]:
     else:
         steps = max(1, int(request.task.max_steps or 1))
         policies = min(settings.policies, PILOT_POLICIES, max(MIN_PILOT_POLICIES, PILOT_STEPS // steps))
-    return (policies, PILOT_EPISODES[0]), (policies, PILOT_EPISODES[1])
+    first, second = (min(episodes, settings.episodes) for episodes in PILOT_EPISODES)
+    return (policies, first), (policies, second)
 
 
 def price(request, task_id: str | None = None) -> TaskCost:
@@ -139,8 +145,8 @@ def price(request, task_id: str | None = None) -> TaskCost:
     from taskcomplexity.rwg import chunks, run_rwg
 
     settings = request.settings
-    timed = []
-    for policies, episodes in ((2, 2), *pilot_sizes(request)):
+    timed, pilots = [], pilot_sizes(request)
+    for policies, episodes in ((2, 2), *pilots):
         pilot = dataclasses.replace(settings, policies=policies, episodes=episodes, shard=0, shards=1,
                                     chunk_policies=policies, workers=1)
         started = cpu_seconds()
@@ -150,12 +156,12 @@ def price(request, task_id: str | None = None) -> TaskCost:
     if long.size > short.size:
         episode_cpu = max(second - first, 0.0) / (long.size - short.size)
         chunk_cpu = max(first - episode_cpu * short.size, 0.0)
-    else:  # N = 2 on a batched backend: both pilots are the run itself
+    else:  # both pilots alike (N = 2 on a batched backend, M = 2 on the others): the second prices the episode
         episode_cpu, chunk_cpu = second / long.size, 0.0
     whole = dataclasses.replace(settings, shard=0, shards=1)
     return TaskCost(task_id or request.task.task_id, request.backend, settings.policies, settings.episodes,
                     int(request.task.max_steps), float(long.mean()), episode_cpu, chunk_cpu,
-                    len(chunks(request.task, request.network, whole, request.backend)))
+                    len(chunks(request.task, request.network, whole, request.backend)), pilots)
 
 
 def _hours(seconds: float) -> str:
@@ -180,8 +186,6 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
 
     refuse_entry(cfg)
     entries = study_requests(cfg)
-    from taskcomplexity.rwg.backends import BACKENDS
-
     cores = usable_cores()
     costs = []
     for entry, request in entries:
@@ -190,20 +194,15 @@ def estimate(cfg: DictConfig, *, echo=print) -> list[TaskCost]:
         log.info("priced %s on %s in %.1f s", entry.id, request.backend, time.perf_counter() - started)
     shards = int(cfg.rwg.shards)
     n, m = entries[0][1].settings.policies, entries[0][1].settings.episodes
-    used = [BACKENDS[b] for b in dict.fromkeys(request.backend for _, request in entries)]
-    fixed = "".join(f" (on {b.name} {b.chunk_policies})" for b in used if b.chunk_policies and not b.steps_at_once)
-    at_once = [b.name for b in used if b.steps_at_once]
     echo(f"RWG cost of study {cfg.study.name} at N = {n:,} × M = {m:,}, from two pilots per task on this machine "
-         f"({cores} usable cores): {PILOT_POLICIES} policies{fixed} × {PILOT_EPISODES[0]} "
-         f"and × {PILOT_EPISODES[1]} episodes"
-         + (f", or on the {' and '.join(at_once)} backend{'s' * (len(at_once) > 1)} 2 and {PILOT_EPISODES[1]} "
-            "policies × M" if at_once else "") + ":")
-    head = (f"{'task':<26}{'backend':>9}{'steps/episode':>15}{'T':>6}{'CPU-ms/episode':>16}{'CPU-s/chunk':>13}"
-            f"{'chunks':>8}{'CPU':>12}")
+         f"({cores} usable cores), their policies × episodes in the column pilots:")
+    head = (f"{'task':<26}{'backend':>9}{'pilots':>14}{'steps/episode':>15}{'T':>6}{'CPU-ms/episode':>16}"
+            f"{'CPU-s/chunk':>13}{'chunks':>8}{'CPU':>12}")
     echo(head)
     echo("-" * len(head))
     for c in costs:
-        echo(f"{c.task:<26}{c.backend:>9}{c.mean_steps:>15.1f}{c.limit:>6}{c.episode_cpu * 1e3:>16.2f}"
+        pilots = ", ".join(f"{policies}×{episodes}" for policies, episodes in c.pilots)
+        echo(f"{c.task:<26}{c.backend:>9}{pilots:>14}{c.mean_steps:>15.1f}{c.limit:>6}{c.episode_cpu * 1e3:>16.2f}"
              f"{c.chunk_cpu:>13.2f}{c.chunks:>8}{_hours(c.cpu_seconds):>12}")
     total = sum(c.cpu_seconds for c in costs)
     echo(f"total: {total / 3600:.2f} CPU-hours; {_hours(total / cores)} of wall time on this machine's {cores} cores "
