@@ -243,7 +243,8 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
 
     Each runs at :data:`TINY` size into a temporary cache (its whole chain: RWG, metrics, diagnostics, the
     movement primitives, the verdict, no SAC, no report; or only the RWG of two policies per task, in a batch of
-    4 environments and in one of the kernel backend's ``PARALLEL_FROM``), so its kernels are called with the
+    4 environments and, on a backend with a parallel kernel, in one of its ``parallel_from``
+    (:class:`~taskcomplexity.rwg.backends.Backend`)), so its kernels are called with the
     argument types, and through the size-dependent paths, that a run at any size calls them with. Returns the
     log of what compiled.
     """
@@ -254,7 +255,7 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
 
     from taskcomplexity.cli import CONF_DIR
     from taskcomplexity.rwg import simulate_chunk
-    from taskcomplexity.rwg.kernel_backend import PARALLEL_FROM
+    from taskcomplexity.rwg.backends import BACKENDS
     from taskcomplexity.study.chain import study_artefacts
     from taskcomplexity.study.plan import read_plan
 
@@ -269,9 +270,10 @@ def warm_up(write: Callable[[str], None] = print) -> CompilationLog:
                 study_artefacts(plan, progress=False, ahead=False)
                 continue
             for request in plan.requests:
-                # a batch of 4 environments and one of PARALLEL_FROM: the kernel backend steps them with its
-                # serial and its parallel kernel, so each is compiled here (a real run's batches are the larger)
-                for policies, episodes in ((2, 2), (2, PARALLEL_FROM // 2)):
+                # a batch of 4 environments, and on a backend with a parallel kernel one of its parallel_from: it
+                # steps them with its serial and its parallel kernel, so each is compiled here
+                parallel_from = BACKENDS[request.backend].parallel_from
+                for policies, episodes in ((2, 2), *([(2, parallel_from // 2)] if parallel_from else [])):
                     simulate_chunk(request.task, request.network, request.prior,
                                    replace(request.settings, policies=policies, episodes=episodes), 0, policies,
                                    request.backend)

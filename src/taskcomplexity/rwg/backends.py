@@ -154,6 +154,9 @@ class Backend:
     in_flight : int
         Environments one process steps together, where the env declares no number of its own
         (:meth:`environments_in_flight`).
+    parallel_from : int or None
+        Environments of a batch from which it steps them with a parallel kernel on every core (a smaller batch: a
+        serial kernel on one); None: one kernel at any size. ``make install``'s warm-up compiles both.
     worker_processes : bool
         Its chunks run on ``rwg.workers`` processes (0: one per usable core), each stepping Python environments on
         one core. The others run in one process (the numba kernels and EnvPool on every core, PyBullet's
@@ -191,6 +194,7 @@ class Backend:
     sac_env: str | None = None
     sac_simulates: str | None = None
     in_flight: int = ENVIRONMENTS_IN_FLIGHT
+    parallel_from: int | None = None
 
     def open(self, task: Task) -> Runner:
         """The backend's runner for ``task`` (close it when done, or use it as a context manager)."""
@@ -234,7 +238,7 @@ BACKENDS: dict[str, Backend] = {b.name: b for b in (
             sac_env="taskcomplexity.tasks.batched_vector:BatchedReachingVector",
             sac_simulates=f"{_RWG}.backends:contact_free_arm"),
     Backend("kernel", f"{_RWG}.kernel_backend:KernelRunner", f"{_RWG}.backends:classic_kernel", specialised=True,
-            calls="acting", steps_at_once=True),
+            calls="acting", steps_at_once=True, parallel_from=4096),
     Backend("envpool", f"{_RWG}.envpool_backend:EnvPoolRunner", f"{_RWG}.backends:on_envpool", specialised=True,
             calls="acting", exact=False, chunk_policies=ENVIRONMENTS_IN_FLIGHT,
             simulator=f"{_RWG}.envpool_backend:simulator"),

@@ -22,7 +22,7 @@ from gymnasium import spaces
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.families import ActingBatch
-from taskcomplexity.rwg.backends import Plan, Runner
+from taskcomplexity.rwg.backends import BACKENDS, Plan, Runner
 from taskcomplexity.rwg.chunking import ReturnChunk
 from taskcomplexity.seeding import episode_reset_seeds
 from taskcomplexity.tasks.classic import ClassicKernel, kernel_for
@@ -31,8 +31,8 @@ from taskcomplexity.tasks.step_kernel import prepare_kernels
 
 COMPACT_BELOW = 0.75
 """Repack the batch once fewer than this fraction of its slots run."""
-PARALLEL_FROM = 4096
-"""Batches of at least this many environments are stepped on every core, smaller ones on one."""
+PARALLEL_FROM = BACKENDS["kernel"].parallel_from
+"""Batches of at least this many environments are stepped on every core, smaller ones on one (4096)."""
 
 
 def task_kernel(task) -> ClassicKernel:
