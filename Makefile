@@ -153,11 +153,13 @@ test-manipulation: $(METAWORLD) ## installs the metaworld extra and runs the tes
 	$(PY) -m pytest -q tests/tasks/test_manipulation.py
 
 # The cluster tests to run (a pytest -m expression): CI runs those that wait on SLURM beside make test, and the ones
-# that install an extra into .venv (marker `installs`) after it, alone (.ci/run).
+# that install an extra into .venv (marker `installs`) after it, alone (.ci/run). CLUSTER_PATHS: the files or folders
+# pytest collects them from (empty: the whole suite; collecting it imports every test module, ~12 CPU-s).
 CLUSTER_TESTS ?= cluster
+CLUSTER_PATHS ?=
 
 test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the local cluster (starts it; make cluster-down stops it)
-	$(PY) -m pytest -q -m "$(CLUSTER_TESTS)"
+	$(PY) -m pytest -q -m "$(CLUSTER_TESTS)" $(CLUSTER_PATHS)
 
 # numba's cache of the AVX2 path's kernels (kept beside .venv's packages: a second run loads them).
 AVX2_NUMBA_CACHE := $(VENV)/numba-avx2

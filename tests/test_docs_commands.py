@@ -303,6 +303,15 @@ def test_the_blocks_that_install_an_extra_are_marked():
     assert pip == {b.id for b in RUNNABLE if installs(b)} and pip
 
 
+def test_the_installs_tests_are_this_files_blocks_where_ci_collects_them():
+    # CI collects the `installs` tests from this file alone (.ci/run passes it as CLUSTER_PATHS): no other test
+    # file may mark a test `installs`
+    others = [p.relative_to(ROOT).as_posix() for p in sorted((ROOT / "tests").rglob("*.py"))
+              if p.resolve() != Path(__file__).resolve() and "mark.installs" in p.read_text(encoding="utf-8")]
+    assert others == []
+    assert "CLUSTER_PATHS=tests/test_docs_commands.py" in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+
+
 def test_no_block_needs_an_activated_virtualenv():
     # `python …` works only after `source .venv/bin/activate`; the pages write .venv/bin/python (or make).
     bare = [b.id for b in ALL if re.search(r"(^|[\s;&|(])(python3?|pip|pytest|mkdocs)\s", commands(b), re.MULTILINE)]
