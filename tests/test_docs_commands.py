@@ -303,13 +303,17 @@ def test_the_blocks_that_install_an_extra_are_marked():
     assert pip == {b.id for b in RUNNABLE if installs(b)} and pip
 
 
-def test_the_installs_tests_are_this_files_blocks_where_ci_collects_them():
-    # CI collects the `installs` tests from this file alone (.ci/run passes it as CLUSTER_PATHS): no other test
-    # file may mark a test `installs`
-    others = [p.relative_to(ROOT).as_posix() for p in sorted((ROOT / "tests").rglob("*.py"))
-              if p.resolve() != Path(__file__).resolve() and "mark.installs" in p.read_text(encoding="utf-8")]
-    assert others == []
-    assert "CLUSTER_PATHS=tests/test_docs_commands.py" in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+@pytest.mark.parametrize(("marker", "paths"), [("cluster", "'tests/cluster tests/test_docs_commands.py'"),
+                                              ("installs", "tests/test_docs_commands.py")])
+def test_ci_collects_the_cluster_tests_where_they_are(marker, paths):
+    # .ci/run collects each lane of cluster tests from its paths (CLUSTER_PATHS), not from the whole suite: a test
+    # marked outside them would never run in CI
+    allowed = [ROOT / path.strip("'") for path in paths.split()]
+    marked = [p for p in sorted((ROOT / "tests").rglob("*.py")) if f"mark.{marker}" in p.read_text(encoding="utf-8")]
+    assert marked and [p.relative_to(ROOT).as_posix() for p in marked
+                       if not any(p == a or a in p.parents for a in allowed)] == []
+    assert f"CLUSTER_TESTS='cluster and {'not ' * (marker == 'cluster')}installs' CLUSTER_PATHS={paths}" in (
+        ROOT / ".ci" / "run").read_text(encoding="utf-8")
 
 
 def test_no_block_needs_an_activated_virtualenv():
