@@ -26,7 +26,10 @@ DB_PORT="${TASKCOMPLEXITY_CLUSTER_DB_PORT:-6833}"
 SYSTEM_CONF=/etc/slurm/slurm.conf
 MARK="# The local single-node cluster of cluster/local_slurm.sh"   # the first line of its slurm.conf
 PACKAGES=(munge mariadb-server slurmdbd slurmctld slurmd slurm-client)
-DAEMONS=(slurmd slurmctld slurmdbd mariadbd munged)   # the order they stop in
+DAEMONS=(slurmd slurmctld slurmdbd mariadbd munged)
+# The order they stop in, a group at a time (each group's daemons at once): the controller and the node while the
+# accounting still runs, the accounting while its database and munge still run, then those two.
+STOP_GROUPS=("slurmd slurmctld" "slurmdbd" "mariadbd munged")
 export SLURM_CONF="$CONF"
 
 say() { echo "local cluster: $*"; }
@@ -217,13 +220,19 @@ down() {
             sleep 0.5
         done
     fi
-    for daemon in "${DAEMONS[@]}"; do
-        local pid
-        pid="$(pid_of "$daemon")" || continue
-        kill -TERM "$pid"
-        for _ in $(seq 60); do kill -0 "$pid" 2>/dev/null || break; sleep 0.5; done
-        kill -0 "$pid" 2>/dev/null && kill -KILL "$pid"
-        stopped+=("$daemon($pid)")
+    local group daemon pid
+    for group in "${STOP_GROUPS[@]}"; do   # TERM a group's daemons, then wait for each (KILL after 30 s)
+        local pids=()
+        for daemon in $group; do
+            pid="$(pid_of "$daemon")" || continue
+            kill -TERM "$pid"
+            pids+=("$pid")
+            stopped+=("$daemon($pid)")
+        done
+        for pid in ${pids[@]+"${pids[@]}"}; do
+            for _ in $(seq 60); do kill -0 "$pid" 2>/dev/null || break; sleep 0.5; done
+            if kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid"; fi
+        done
     done
     pkill -KILL -f "^slurmstepd: \[" 2>/dev/null || true   # a job step left without its slurmd
     if [[ "$(readlink "$SYSTEM_CONF" 2>/dev/null)" == "$CONF" ]]; then rm -f "$SYSTEM_CONF"; fi
