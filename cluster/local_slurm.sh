@@ -30,6 +30,9 @@ DAEMONS=(slurmd slurmctld slurmdbd mariadbd munged)
 # The order they stop in, a group at a time (each group's daemons at once): the controller and the node while the
 # accounting still runs, the accounting while its database and munge still run, then those two.
 STOP_GROUPS=("slurmd slurmctld" "slurmdbd" "mariadbd munged")
+# The accounting database holds a few hundred rows: InnoDB's defaults (a 96 MB redo log, a 128 MB buffer pool) would
+# take disk and memory a CI machine may not have.
+INNODB=(--innodb-buffer-pool-size=64M --innodb-log-file-size=8M)
 export SLURM_CONF="$CONF"
 
 say() { echo "local cluster: $*"; }
@@ -64,7 +67,7 @@ install_packages() {
     say "installing ${PACKAGES[*]} (apt-get)"
     export DEBIAN_FRONTEND=noninteractive
     apt-get update -qq >/dev/null
-    apt-get install -y -qq --no-install-recommends "${PACKAGES[@]}" >/dev/null
+    apt-get install -y -qq --no-install-recommends -o APT::Keep-Downloaded-Packages=false "${PACKAGES[@]}" >/dev/null
 }
 
 write_config() {
@@ -148,11 +151,11 @@ start_database() {
     pid_of mariadbd >/dev/null && return 0
     if [[ ! -d "$STATE/mysql/mysql" ]]; then
         mariadb-install-db --user=root --datadir="$STATE/mysql" --auth-root-authentication-method=socket \
-            --skip-test-db > "$STATE/log/mariadb-install.log" 2>&1 || fail "mariadb-install-db failed (log: $STATE/log/mariadb-install.log)"
+            --skip-test-db "${INNODB[@]}" > "$STATE/log/mariadb-install.log" 2>&1 || fail "mariadb-install-db failed (log: $STATE/log/mariadb-install.log)"
     fi
     setsid mariadbd --user=root --datadir="$STATE/mysql" --socket="$STATE/run/mysqld.sock" --port="$DB_PORT" \
         --bind-address=127.0.0.1 --pid-file="$STATE/run/mariadbd.pid" --log-error="$STATE/log/mariadb.log" \
-        --innodb-buffer-pool-size=64M < /dev/null > /dev/null 2>&1 &
+        "${INNODB[@]}" < /dev/null > /dev/null 2>&1 &
     wait_for 60 MariaDB sql -e "select 1"
     sql -e "CREATE DATABASE IF NOT EXISTS slurm_acct_db;
             CREATE USER IF NOT EXISTS 'slurm'@'127.0.0.1' IDENTIFIED BY 'local-cluster';
