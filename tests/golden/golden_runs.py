@@ -87,7 +87,8 @@ TRAINING_TOLERANCE = Tolerance(relative=1e-5, absolute=3e-6)
 torch, whose matrix products and vector kernels (MKL, oneDNN, ATen: picked by instruction set and vendor) round
 differently on each kind of CPU, and each gradient step carries the difference into the next. After the golden
 run's 300 steps the weights (all below 0.41 in size) differ by at most 2.9e-7 between any two of the kinds
-measured: Intel AVX-512, Intel AVX2, and AMD Zen 4, whose AVX-512 and AVX2 paths agree to the bit. That is up to
+measured: Intel AVX-512, Intel AVX2, AMD Zen 4, whose AVX-512 and AVX2 paths agree to the bit, and AMD Zen 3 (AVX2
+only; its weights within 9e-8 of the records, its curves equal to the bit). That is up to
 7e-5 relative on weights near zero, so the bound is chiefly absolute: 3e-6, ten times the measured, and with the
 relative term at most 7e-6 on these weights, over 100 times below one Adam step (the actor's learning rate,
 1e-3), by which any change of the training moves them. The curves are float32 returns (up to ~150 in size),
@@ -97,7 +98,8 @@ ACTORS_TOLERANCE = Tolerance(relative=1e-7, absolute=1e-12)
 """How far the golden values of the stages computed from SAC's actors (occupancy, learning path) may move
 between CPUs. The actors' weights differ by float32 last bits (:data:`TRAINING_TOLERANCE`), which moves these
 stages' values by at most 6.9e-9 relative between any two of the kinds measured (the occupancy's variance of
-the OT distances; the learning path's by at most 6.4e-9, the standard deviation of its POIC). The bound is about
+the OT distances; the learning path's by at most 6.4e-9, the standard deviation of its POIC; on AMD Zen 3, 6.9e-9 and
+5.5e-9 from the records). The bound is about
 15 times that, and ten times below the 1e-6 by which a change of an estimator, a setting or a seed moves them;
 its absolute term is :data:`TOLERANCE`'s."""
 

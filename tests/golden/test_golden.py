@@ -183,7 +183,7 @@ def test_the_stages_sacs_training_reaches_pass_another_cpus_last_bits_and_fail_a
         cases = {case: {n: change(v) if v.dtype.kind == "f" else v for n, v in values[stage][case].items()}}
         return {**values, stage: {**values[stage], **cases}}
 
-    # SAC's weights: 3e-7, the most two CPU kinds were measured apart (Intel AVX-512, Intel AVX2, AMD Zen 4),
+    # SAC's weights: 3e-7, the most two CPU kinds were measured apart (Intel AVX-512, Intel AVX2, AMD Zen 4 and Zen 3),
     # passes; 1e-5, a hundredth of one Adam step at the actor's learning rate of 1e-3, fails
     assert problem("sac", now, record, moved("sac", lambda v: v + 3e-7)) is None
     assert not TOLERANCE.close(np.array([0.1 + 3e-7]), np.array([0.1])).all()  # hence its own tolerance
