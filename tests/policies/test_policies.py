@@ -14,6 +14,7 @@ from gymnasium import spaces
 from taskcomplexity.cli import CONF_DIR
 from taskcomplexity.config import build
 from taskcomplexity.errors import ConfigError
+from taskcomplexity.policies import tanh as tanh_module
 from taskcomplexity.policies.families import (
     FAMILIES,
     INTERFACES,
@@ -24,7 +25,6 @@ from taskcomplexity.policies.families import (
     network_from_config,
     sample_family,
 )
-from taskcomplexity.policies import tanh as tanh_module
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, policy_parameters, sample_policies, select_policy
 from taskcomplexity.rwg import BACKENDS, RWGSettings, run_rwg
 from taskcomplexity.rwg.backends import Plan, family_backends, task_backends
