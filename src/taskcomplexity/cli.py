@@ -151,6 +151,38 @@ def composition_errors(argv: list[str], conf_dir: Path = CONF_DIR):
         typed_full_error()
 
 
+@contextlib.contextmanager
+def one_composition(argv: list[str]):
+    """Hydra's app inside the block composes its config once, not twice.
+
+    Before it runs a command, Hydra composes the whole config once only to read ``hydra.mode`` (whether a command
+    without ``-m`` is a multirun), then composes it again to run: ~0.3 CPU-s of every command's start. No packaged
+    config sets ``hydra.mode`` (``tests/commands/test_startup.py`` reads it with Hydra's own ``get_mode`` for every
+    experiment and launcher), so where every config comes from the packaged directory and no override names
+    ``hydra.mode``, Hydra is told that nothing sets it (``Hydra.get_mode`` returns None, as it does for an unset
+    mode) and the mode follows ``-m`` as it would. Anything else (``--config-dir``, a ``hydra.searchpath``
+    directory, a ``hydra.mode`` override) keeps Hydra's own reading.
+    """
+    from hydra._internal.hydra import Hydra
+
+    words = argv[1:]
+    own = any(word.startswith(("--config-dir", "-cd")) for word in words) or len(search_dirs(argv)) > 1
+    if own or any(word.partition("=")[0].lstrip("+~") == "hydra.mode" for word in words):
+        yield
+        return
+    read = Hydra.get_mode
+    Hydra.get_mode = _mode_unset
+    try:
+        yield
+    finally:
+        Hydra.get_mode = read
+
+
+def _mode_unset(hydra, config_name, overrides) -> None:
+    """``Hydra.get_mode`` where no config sets ``hydra.mode`` (:func:`one_composition`)."""
+    return None
+
+
 def typed_full_error() -> None:
     """Give ``HYDRA_FULL_ERROR`` back the value the user typed (:func:`composition_errors` set it while Hydra
     composed); nothing outside that block."""

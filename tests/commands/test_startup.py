@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from taskcomplexity.cli import CONF_DIR, one_composition
+
 ROOT = Path(__file__).resolve().parents[2]
 PIPELINES = ROOT / "pipelines"
 HEAVY = ("torch", "torchrl", "tensordict", "seaborn", "matplotlib", "scipy", "pandas", "pyarrow", "numba", "llvmlite",
@@ -141,3 +143,48 @@ def test_the_settings_name_the_kernels_contact_modes_and_precisions():
     from taskcomplexity.tasks.rollout_kernel import PRECISIONS as KERNEL_PRECISIONS
 
     assert CONTACTS == tuple(CONTACT_MODES) and PRECISIONS == tuple(KERNEL_PRECISIONS)
+
+
+def _options(group: str) -> list[str]:
+    return sorted(path.stem for path in (CONF_DIR / group).glob("*.yaml"))
+
+
+@pytest.mark.parametrize("override", [f"experiment={name}" for name in _options("experiment")]
+                         + [f"hydra/launcher={name}" for name in _options("hydra/launcher")])
+def test_no_packaged_config_sets_hydras_mode_so_reading_it_composes_nothing(override):
+    # one_composition tells Hydra that nothing sets hydra.mode instead of composing the config to read it: true of
+    # every experiment and launcher, as Hydra's own reading finds
+    from hydra import initialize_config_dir
+    from hydra._internal.hydra import Hydra
+    from hydra.core.global_hydra import GlobalHydra
+
+    with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+        hydra = Hydra(task_name="study", config_loader=GlobalHydra.instance().config_loader())
+        assert hydra.get_mode(config_name="config", overrides=[override]) is None
+
+
+@pytest.mark.parametrize(("argv", "reads"), [
+    (["study.py", "rwg.policies=-1"], False),
+    (["study.py", "-m", "study.policies=10,20"], False),
+    (["study.py", "hydra.mode=MULTIRUN"], True),
+    (["study.py", "--config-dir", "mine", "study=own"], True),
+    (["study.py", "hydra.searchpath=[file://mine]", "study=own"], True),
+])
+def test_hydra_reads_the_mode_itself_only_where_a_config_of_the_users_or_an_override_may_set_it(argv, reads):
+    from hydra._internal.hydra import Hydra
+
+    own = Hydra.get_mode
+    with one_composition(argv):
+        assert (Hydra.get_mode is own) == reads
+    assert Hydra.get_mode is own
+
+
+def test_a_command_composes_its_config_once(tmp_path):
+    script = ("import sys; from hydra._internal.hydra import Hydra; calls = []; compose = Hydra.compose_config\n"
+              "def counted(self, *a, **k):\n    calls.append(1); return compose(self, *a, **k)\n"
+              "Hydra.compose_config = counted\n"
+              "import atexit; atexit.register(lambda: print('compositions', len(calls), file=sys.stderr))\n"
+              "from taskcomplexity.commands.study import main; sys.argv = ['study.py', 'rwg.policies=-1']; main()")
+    done = run(["-c", script], tmp_path, env={"TASKCOMPLEXITY_OUTPUTS": str(tmp_path)})
+    assert done.returncode == 2 and "error: rwg.policies must be an integer >= 2 (N), got -1" in done.stderr
+    assert "compositions 1" in done.stderr

@@ -67,7 +67,8 @@ def entry_point(run):
     ``main()`` refuses a bad ``group=option`` override in one line (before Hydra parses the command
     line), then runs ``run`` as a Hydra app over the packaged configs, announcing numba's compilations
     (:mod:`taskcomplexity.commands.compilation`); an error of Hydra composing the config is one line too
-    (:func:`taskcomplexity.cli.composition_errors`), and ``--help`` is Hydra's help from one composition
+    (:func:`taskcomplexity.cli.composition_errors`), Hydra composes it once, not twice
+    (:func:`taskcomplexity.cli.one_composition`), and ``--help`` is Hydra's help from one composition
     (:func:`taskcomplexity.cli.app_help`). Hydra names the job (and its
     log file) after ``run``'s module: ``rwg``, ``metrics``, ``sac``, ``verdict``, ``study``.
     """
@@ -76,7 +77,15 @@ def entry_point(run):
 
     import hydra
 
-    from taskcomplexity.cli import CONF_DIR, HELP_FLAGS, app_help, check_overrides, composition_errors, typed_full_error
+    from taskcomplexity.cli import (
+        CONF_DIR,
+        HELP_FLAGS,
+        app_help,
+        check_overrides,
+        composition_errors,
+        one_composition,
+        typed_full_error,
+    )
 
     @hydra.main(version_base="1.3", config_path=str(CONF_DIR), config_name="config")
     @functools.wraps(run)
@@ -95,7 +104,7 @@ def entry_point(run):
                 print(text)
                 return
         check_overrides(sys.argv, compose=False)
-        with composition_errors(sys.argv):
+        with composition_errors(sys.argv), one_composition(sys.argv):
             app()
 
     main.__doc__ = f"The console script of :mod:`{run.__module__}` (and its shim under ``pipelines/``)."
