@@ -160,13 +160,14 @@ def one_composition(argv: list[str]):
     config sets ``hydra.mode`` (``tests/commands/test_startup.py`` reads it with Hydra's own ``get_mode`` for every
     experiment and launcher), so where every config comes from the packaged directory and no override names
     ``hydra.mode``, Hydra is told that nothing sets it (``Hydra.get_mode`` returns None, as it does for an unset
-    mode) and the mode follows ``-m`` as it would. Anything else (``--config-dir``, a ``hydra.searchpath``
-    directory, a ``hydra.mode`` override) keeps Hydra's own reading.
+    mode) and the mode follows ``-m`` as it would. Anything else (``--config-dir``, ``--config-path``, a
+    ``hydra.searchpath`` directory, a ``hydra.mode`` override) keeps Hydra's own reading.
     """
     from hydra._internal.hydra import Hydra
 
     words = argv[1:]
-    own = any(word.startswith(("--config-dir", "-cd")) for word in words) or len(search_dirs(argv)) > 1
+    own = any(word.startswith(("--config-dir", "-cd", "--config-path", "-cp")) for word in words)
+    own = own or len(search_dirs(argv)) > 1
     if own or any(word.partition("=")[0].lstrip("+~") == "hydra.mode" for word in words):
         yield
         return

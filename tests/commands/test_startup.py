@@ -168,6 +168,7 @@ def test_no_packaged_config_sets_hydras_mode_so_reading_it_composes_nothing(over
     (["study.py", "-m", "study.policies=10,20"], False),
     (["study.py", "hydra.mode=MULTIRUN"], True),
     (["study.py", "--config-dir", "mine", "study=own"], True),
+    (["study.py", "-cp", "/home/me/conf", "study=own"], True),
     (["study.py", "hydra.searchpath=[file://mine]", "study=own"], True),
 ])
 def test_hydra_reads_the_mode_itself_only_where_a_config_of_the_users_or_an_override_may_set_it(argv, reads):
