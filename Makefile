@@ -40,7 +40,10 @@ $(VENV)/.extra-%: $(STAMP) pyproject.toml
 	$(PY) -m pip install --quiet -e '.[$*]'
 	@touch '$@'
 
-install: $(STAMP) ## create .venv, install the package with its pinned dependencies and compile its numba kernels
+# pip compiles the bytecode of what it installs, but not of the package installed in place (-e): compileall does,
+# so that a process that may not write bytecode (PYTHONDONTWRITEBYTECODE) does not compile the package at each start.
+install: $(STAMP) ## create .venv, install the package with its pinned dependencies and compile its bytecode and numba kernels
+	$(PY) -m compileall -q -j 0 src
 	$(PY) -m taskcomplexity.commands.compilation
 
 run: $(STAMP) ## the main job: the seven tasks at the published scale (RWG, metrics, diagnostics, verdict, report)

@@ -5,7 +5,8 @@ by its capability, and the BLAS libraries (NumPy's and SciPy's OpenBLAS, torch's
 core type.
 A result that differs between an AVX2 laptop and an AVX-512 server comes from one of these choices, so CI runs
 the tests that pin numbers twice: natively, and under :func:`avx2_environment`, which asks each library for its
-AVX2 path. On an AVX2 machine the second run takes the path it already has. Run a command on that path::
+AVX2 path. On an AVX2 machine the second run would take the path it already has, so CI skips it there
+(``--above-avx2`` tells). Run a command on that path::
 
     .venv/bin/python tests/cpu_paths.py -- .venv/bin/python -m pytest tests/golden
 
@@ -42,6 +43,14 @@ def _numpy_avx512_targets() -> str:
     from numpy._core._multiarray_umath import __cpu_dispatch__
 
     return " ".join(name for name in NUMPY_AVX512.split() if name in __cpu_dispatch__)
+
+
+def above_avx2() -> list[str]:
+    """The host's instruction sets above AVX2 (LLVM feature names starting with one of :data:`WIDER_THAN_AVX2`):
+    empty on an AVX2 machine, whose native path is the AVX2 path."""
+    from llvmlite import binding
+
+    return sorted(name for name, on in binding.get_host_cpu_features().items() if on and name.startswith(WIDER_THAN_AVX2))
 
 
 def avx2_environment(numba_cache: str) -> dict[str, str]:
@@ -88,7 +97,11 @@ def describe() -> str:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="cpu_paths.py", usage="%(prog)s [--numba-cache DIR] -- COMMAND [ARG…]",
+    if argv == ["--above-avx2"]:  # exit 0 and name them where the host has instruction sets above AVX2, else 1
+        wider = above_avx2()
+        print(" ".join(wider) or "none: the native path is the AVX2 path")
+        return 0 if wider else 1
+    parser = argparse.ArgumentParser(prog="cpu_paths.py", usage="%(prog)s [--numba-cache DIR] -- COMMAND [ARG…] | --above-avx2",
                                      description="Run COMMAND on the AVX2 path.")
     parser.add_argument("--numba-cache", metavar="DIR",
                         help="where numba caches the AVX2 kernels (default: a new temporary directory); a "
