@@ -125,7 +125,7 @@ classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_contro
 # files in the order tests/conftest.py collects them (the longest first).
 XDIST := -n auto --dist loadfile --no-loadscope-reorder
 
-test: $(STAMP) ## run the test suite (CI runs it, then make test-cluster and make test-avx2)
+test: $(STAMP) ## run the test suite (CI runs it beside make test-cluster, then make test-avx2 where the CPU has AVX-512)
 	$(PY) -m pytest -q -m "not slow and not cluster" $(XDIST)
 
 # The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
@@ -167,7 +167,7 @@ test-cluster: $(STAMP) cluster-up ## the tests that send jobs to SLURM, on the l
 # numba's cache of the AVX2 path's kernels (kept beside .venv's packages: a second run loads them).
 AVX2_NUMBA_CACHE := $(VENV)/numba-avx2
 
-test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass)
+test-avx2: $(STAMP) ## the tests that pin numbers, on the AVX2 path of numba, NumPy, torch and the BLAS (CI's second pass, on a CPU with a path wider than AVX2)
 	$(PY) tests/cpu_paths.py --numba-cache $(AVX2_NUMBA_CACHE) -- $(PY) -m pytest -q -m "not slow" $(XDIST) $(PINNED_TESTS)
 
 install-avx2: $(STAMP) ## compile the AVX2 path's kernels ahead, as make install does the native ones (into .venv/numba-avx2, what make test-avx2 loads)

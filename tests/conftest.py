@@ -62,7 +62,8 @@ def pytest_collection_modifyitems(config, items):
 
 def pytest_terminal_summary(terminalreporter):
     """The kernels this run computed with (numba's target, NumPy's dispatch, torch's capability, the BLAS), in the
-    summary that ``-q`` keeps: CI runs the suite on two code paths and its log says which was which."""
+    summary that ``-q`` keeps: CI runs the tests that pin numbers on two code paths where the CPU has two, and its
+    log says which was which."""
     from cpu_paths import describe
 
     terminalreporter.write_line(f"CPU code paths: {describe()}")

@@ -5,7 +5,7 @@ column and the size of the change; a refactor that keeps the numbers passes, and
 (``tests/stages/test_keys.py``). One record holds for every CPU: the numbers of a CPU's kernels (AVX2 or
 AVX-512, Intel or AMD) are the same numbers within ``golden_runs.TOLERANCE``, or within the wider tolerance of
 the stages SAC's float32 training reaches (``TRAINING_TOLERANCE``, ``ACTORS_TOLERANCE``); CI runs this file on
-both paths (``tests/cpu_paths.py``).
+both paths where the CPU has both (``tests/cpu_paths.py``).
 
 The stages are read from the stage records. A declared stage without a golden run, or a golden run without a
 record, is skipped with the line that says how to add or record it; values a golden run holds that are not
