@@ -3,11 +3,16 @@ processes (``taskcomplexity.rwg.workers``) against one process."""
 
 from __future__ import annotations
 
+import os
+import sys
+from pathlib import Path
+
 import gymnasium
 import numpy as np
 import pytest
 import torch
 
+import preloaded
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec, sample_policies, select_policy
 from taskcomplexity.rwg import ReturnChunk, RWGSettings, run_rwg
@@ -95,3 +100,51 @@ def test_a_failing_chunk_lets_the_running_ones_finish_and_keeps_them(monkeypatch
                                [(0, 1), (1, 2), (2, 3), (3, 4)], 2, done.__setitem__)
     assert (0, 1) in done and (1, 2) not in done  # chunk 0 was running when chunk 1 failed: it is kept
 
+
+
+SCRIPT = '''
+import multiprocessing
+
+import gymnasium
+import numpy as np
+import torchrl  # noqa: F401  (importing it sets multiprocessing's global start method to spawn)
+
+from taskcomplexity.policies.mlp import NetworkSpec, PriorSpec
+from taskcomplexity.rwg import RWGSettings, run_rwg
+from taskcomplexity.tasks.gym_task import GymTask
+
+assert multiprocessing.get_start_method() == "spawn"
+
+
+class Drift(gymnasium.Env):
+    observation_space = gymnasium.spaces.Box(-10.0, 10.0, (1,), np.float64)
+    action_space = gymnasium.spaces.Box(-1.0, 1.0, (1,), np.float64)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.x = self.np_random.uniform(-1.0, 1.0, 1)
+        return self.x.copy(), {}
+
+    def step(self, action):
+        self.x = self.x + 0.1 * np.asarray(action, dtype=np.float64).reshape(1)
+        return self.x.copy(), float(-abs(self.x[0])), False, False, {}
+
+
+gymnasium.register("ScriptDrift-v0", entry_point=Drift, max_episode_steps=8)
+returns = [run_rwg(GymTask("ScriptDrift-v0"), NetworkSpec(), PriorSpec(),
+                   RWGSettings(policies=4, episodes=2, chunk_policies=1, workers=workers), backend="gym").returns
+           for workers in (1, 2)]
+np.testing.assert_array_equal(*returns)
+print("the same returns on 2 workers")
+'''
+
+
+def test_workers_start_the_platforms_way_after_torchrl_set_spawn_so_the_scripts_env_is_there():
+    """An env registered by the calling script (here a ``-c`` program, which a spawned worker cannot import again)
+    reaches the workers after TorchRL's import set multiprocessing's global start method to ``spawn``: they start
+    the platform's way (fork on Linux), as a run that has not imported TorchRL does."""
+    root = Path(__file__).resolve().parents[2]
+    environment = {**os.environ, "PYTHONPATH": str(root / "src")}
+    done = preloaded.run([sys.executable, "-c", SCRIPT], cwd=root, env=environment, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stdout.strip() == "the same returns on 2 workers"

@@ -4,8 +4,10 @@ A chunk's returns depend only on (task, policy n, episode e, seed), so chunks ru
 the returns one process gives. The backends whose chunks run on workers declare it
 (:attr:`taskcomplexity.rwg.backends.Backend.worker_processes`: ``gym``, ``vector``); the others run in one process.
 Workers start the platform's way (``fork`` on Linux, so an env registered by the calling script is registered in
-them too) and, as PyTorch's data-loader workers do, run their policies' forward pass on one thread (a forked OpenMP
-pool is not used); each opens the backend's runner once for the whole run (the ``gym`` backend's pool of
+them too, and a worker costs no new interpreter), whatever a library imported earlier set as multiprocessing's
+global default (importing TorchRL sets ``spawn``; a SAC run, or a test, before the RWG stage imports it). As
+PyTorch's data-loader workers do, they run their policies' forward pass on one thread (a forked OpenMP pool is not
+used); each opens the backend's runner once for the whole run (the ``gym`` backend's pool of
 environments), so W workers keep W cores stepping environments.
 """
 
@@ -33,6 +35,12 @@ from taskcomplexity.tasks.base import Task
 
 _RUNNER: Runner | None = None
 """The backend's runner of this worker process (opened by :func:`_start`)."""
+
+
+def platform_start_method() -> str:
+    """The platform's own default start method (``fork`` on Linux before Python 3.14), which the first of
+    :func:`multiprocessing.get_all_start_methods` is, not the global default a library may have set."""
+    return multiprocessing.get_all_start_methods()[0]
 
 
 def worker_count(settings: RWGSettings, chunks: int) -> int:
@@ -64,7 +72,7 @@ def run_on_workers(task: Task, network: FamilySpec, prior: PriorSpec, settings: 
     :class:`~taskcomplexity.errors.WorkerLost` naming the chunks saved; an interrupt (Ctrl-C, ``SIGTERM``) stops
     the workers at once (:func:`~taskcomplexity.processes.stop_pool`): the chunks they held are computed again by
     the rerun."""
-    context = multiprocessing.get_context()
+    context = multiprocessing.get_context(platform_start_method())
     error: BaseException | None = None
     finished = 0
     pool = concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_start,
