@@ -50,7 +50,8 @@ def above_avx2() -> list[str]:
     empty on an AVX2 machine, whose native path is the AVX2 path."""
     from llvmlite import binding
 
-    return sorted(name for name, on in binding.get_host_cpu_features().items() if on and name.startswith(WIDER_THAN_AVX2))
+    return sorted(name for name, on in binding.get_host_cpu_features().items()
+                  if on and name.startswith(WIDER_THAN_AVX2))
 
 
 def avx2_environment(numba_cache: str) -> dict[str, str]:
@@ -101,7 +102,8 @@ def main(argv: list[str]) -> int:
         wider = above_avx2()
         print(" ".join(wider) or "none: the native path is the AVX2 path")
         return 0 if wider else 1
-    parser = argparse.ArgumentParser(prog="cpu_paths.py", usage="%(prog)s [--numba-cache DIR] -- COMMAND [ARG…] | --above-avx2",
+    parser = argparse.ArgumentParser(prog="cpu_paths.py",
+                                     usage="%(prog)s [--numba-cache DIR] -- COMMAND [ARG…] | --above-avx2",
                                      description="Run COMMAND on the AVX2 path.")
     parser.add_argument("--numba-cache", metavar="DIR",
                         help="where numba caches the AVX2 kernels (default: a new temporary directory); a "
