@@ -16,13 +16,15 @@ class ClusterLauncher(SlurmLauncher):
     def __call__(self, sweep_overrides: list[str], job_dir_key: str, job_num: int, job_id: str,
                  singleton_state: dict[type, Any]) -> JobReturn:
         """Run the job in its SLURM allocation; an entry point's one-line exit becomes a failed result."""
-        from taskcomplexity.commands.cluster import job_result, out_of_time_unwinds
+        from taskcomplexity.commands.cluster import job_result, out_of_time_unwinds, time_limit_ignored
 
         out_of_time_unwinds()
         try:
             return super().__call__(sweep_overrides, job_dir_key, job_num, job_id, singleton_state)
         except SystemExit as exit:
             return job_result(exit, sweep_overrides)
+        finally:
+            time_limit_ignored()
 
     def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[JobReturn]:
         """Send the jobs as one array, wait for them, and turn failed jobs into one line each."""

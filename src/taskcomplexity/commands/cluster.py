@@ -95,6 +95,21 @@ def out_of_time_unwinds() -> None:
     signal.signal(number, handler)
 
 
+def time_limit_ignored() -> None:
+    """Ignore SLURM's time-limit signal from here on: the job's work is over (its result, or its one line, is what
+    submitit writes next).
+
+    The signal can come after the work is done, while submitit writes the result or while Python shuts down. With
+    submitit's handler still in place it would requeue a finished job; once Python has removed its handlers, it
+    would kill the process, and SLURM would record the job FAILED although its result was delivered.
+    """
+    import signal
+
+    from submitit.slurm.slurm import SlurmJobEnvironment
+
+    signal.signal(getattr(signal, f"SIG{SlurmJobEnvironment.USR_SIG}"), signal.SIG_IGN)
+
+
 def job_result(exit: SystemExit, overrides: list[str]) -> JobReturn:
     """The result of a job whose entry point exited: a failed JobReturn holding its one line (:class:`JobFailed`),
     or ``exit`` raised again when it is no one-line exit of the entry point.
