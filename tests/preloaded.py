@@ -42,8 +42,11 @@ import types
 from pathlib import Path
 
 PRELOAD = ["numpy", "torch", "scipy.stats", "pandas", "pyarrow.parquet", "hydra", "omegaconf", "gymnasium",
-           "numba", "tqdm", "matplotlib"]
-"""What the fork server imports once: the libraries that most commands import and that take most of their start."""
+           "numba", "tqdm", "matplotlib", "seaborn", "sklearn.neighbors", "sklearn.feature_selection"]
+"""What the fork server imports once: the libraries that most commands import and that take most of their start
+(seaborn and scikit-learn: 0.8 CPU-s of a study's start once the others are in). Not TorchRL (1.8 CPU-s more):
+importing it sets multiprocessing's start method for the whole process, which a command that does not import it
+must not inherit."""
 
 PER_COMMAND = ("TASKCOMPLEXITY_", "PYTHONPATH", "PYTEST_", "HYDRA_FULL_ERROR", "SLURM_", "COLUMNS", "LINES")
 """Environment variables (names or prefixes) a command may set to its own values and still be forked: none of
