@@ -300,9 +300,13 @@ def _dot_size(count: int) -> float:
 
 
 def _log_counts(ax) -> None:
-    """Log-scale count axis with plain tick labels (1, 10, 100) and empty bins left out."""
+    """Log-scale count axis with plain tick labels (1, 10, 100) and empty bins left out; counts below 10 get the
+    ticks 1, 2, 5 at once (the decades alone would label only 1, and :func:`legible_ticks` would draw the figure
+    again to add them)."""
     ax.set_yscale("log")
     ax.set_ylim(bottom=0.7)
+    if ax.dataLim.y1 < 10:
+        ax.yaxis.set_major_locator(mpl.ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
     ax.yaxis.set_major_formatter(mpl.ticker.FuncFormatter(lambda value, _: f"{value:g}"))
     ax.yaxis.set_minor_formatter(mpl.ticker.NullFormatter())
 
