@@ -88,6 +88,16 @@ def sacct(job: str, env: dict, *, attempts: bool = False) -> list[dict]:
     return [dict(zip(head, line.split("|"), strict=True)) for line in out[1:]]
 
 
+def settled(job: str, env: dict, seconds: float = 60) -> list[dict]:
+    """The accounting rows of ``job`` itself, one per attempt, once its last attempt has ended: the sweep returns
+    as soon as a job has written its result, while the job's process is still ending (sacct: RUNNING, COMPLETING)."""
+    def ended():
+        rows = [r for r in sacct(job, env, attempts=True) if r["JobID"] == job]
+        return rows if rows and rows[-1]["State"] not in ("PENDING", "RUNNING", "COMPLETING", "REQUEUED") else None
+
+    return wait_for(ended, seconds, f"the end of job {job} in sacct")
+
+
 def artefact(outputs: Path) -> Path:
     [found] = (outputs / "cache" / "rwg").glob("[!.]*/returns.parquet")
     return found.parent
@@ -123,7 +133,7 @@ def test_a_sharded_rwg_job_array_merges_into_the_one_job_artefact(environment, t
     jobs = array_tasks(sweep)
     assert len(jobs) == 4 and len({j.split("_")[0] for j in jobs}) == 1  # one array of 4 tasks
     for job in jobs:
-        [row] = [r for r in sacct(job, environment) if r["JobID"] == job]
+        row = settled(job, environment)[-1]
         assert row["State"] == "COMPLETED" and row["NodeList"]
     merged = artefact(outputs)
     single = one_job_run(tmp_path, *overrides, env=environment)
@@ -208,7 +218,7 @@ def test_a_job_at_its_time_limit_is_requeued_and_resumes_from_its_saved_chunks(e
     assert restarts == sorted(set(restarts)) and restarts[-1] >= 1 and records[0]["reused"] == 0
     assert all(later["reused"] == earlier["reused"] + earlier["units"] for earlier, later in itertools.pairwise(records))
     assert sum(r["units"] for r in records) == 12   # every policy computed once over the attempts
-    attempts = [r["State"] for r in sacct(job, environment, attempts=True) if r["JobID"] == job]
+    attempts = [r["State"] for r in settled(job, environment)]
     assert attempts == ["REQUEUED"] * restarts[-1] + ["COMPLETED"]
     single = one_job_run(tmp_path, *overrides, env=environment)
     assert (artefact(outputs) / "returns.parquet").read_bytes() == (single / "returns.parquet").read_bytes()
