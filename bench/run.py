@@ -56,6 +56,7 @@ QUICK: dict[str, list[str]] = {
     "bench_metrics": ["--policies", "500", "--episodes", "200", "--resamples", "50", "--repeats", "1"],
     "bench_mujoco": ["--steps", "1000", "--policies", "4", "--episodes", "8", "--chunk-policies", "2",
                      "--max-steps", "100", "--repeats", "1", "--pool-policies", "16"],
+    "bench_report": ["--repeats", "3"],
     "bench_rwg": ["--one-task", "--policies", "1000", "--episodes", "100", "--chunk-policies", "50",
                   "--repeats", "1"],
     "bench_sac": ["--steps", "300", "--no-concurrent"],
