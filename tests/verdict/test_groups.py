@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+import scipy.stats
 
 from taskcomplexity.errors import ConfigError
 from taskcomplexity.metrics.registry import DEFAULT_REGISTRY
@@ -15,6 +16,7 @@ from taskcomplexity.verdict.groups import (
     CONTRADICT,
     NOT_SIGNIFICANT,
     UNINFORMATIVE,
+    _taus,
     group_relations,
     rank_agreement,
 )
@@ -131,3 +133,20 @@ def test_a_group_the_study_lacks_leaves_the_others_compared_by_their_own_names()
     row = table.iloc[0]
     assert len(table) == 1 and (row["easier"], row["harder"]) == ("easy", "hard")
     assert (row["tasks_easier"], row["tasks_harder"]) == (3, 3) and row["mean_easier"] > row["mean_harder"]
+
+
+def test_the_resampled_taus_are_scipys_kendalltau_of_each_resample():
+    # The intervals' τ of every resample at once (scipy's axis=1) are those of one kendalltau call per resample:
+    # bootstrap picks (ties in both orders, constant rows: NaN) and a matrix of draws against one known order.
+    rng = np.random.default_rng(3)
+    known = np.repeat([0.0, 1.0, 2.0], [3, 2, 2])
+    values = rng.normal(size=known.size)
+    picks = rng.integers(0, known.size, size=(300, known.size))
+    one_by_one = np.array([scipy.stats.kendalltau(values[p], known[p]).statistic for p in picks])
+    assert np.isnan(one_by_one).any() and np.isfinite(one_by_one).sum() > 200
+    np.testing.assert_array_equal(_taus(values[picks], known[picks]), one_by_one)
+    draws = rng.normal(size=(50, known.size))
+    draws[0] = 1.0   # a constant draw
+    np.testing.assert_array_equal(_taus(draws, known[np.newaxis, :]),
+                                  [scipy.stats.kendalltau(draw, known).statistic for draw in draws])
+    assert _taus(draws[:0], known[np.newaxis, :]).shape == (0,)

@@ -116,18 +116,27 @@ def _rank(known: np.ndarray, y: np.ndarray, own: pd.DataFrame | None, tasks: lis
     if own is not None and set(tasks) <= set(own.columns):
         matrix = own[tasks].to_numpy(dtype=np.float64)
         matrix = matrix[np.isfinite(matrix).all(axis=1)]
-        taus = np.array([scipy.stats.kendalltau(draw, known).statistic for draw in matrix])
+        taus = _taus(matrix, known[np.newaxis, :])
         taus = taus[np.isfinite(taus)]
         if taus.size >= 2:
             row["policies_low"], row["policies_high"] = (float(q) for q in np.quantile(taus, [tail, 1 - tail]))
             row["resamples"] = int(taus.size)
     rng = np.random.default_rng(TASK_SEED)
     picks = rng.integers(0, len(tasks), size=(TASK_RESAMPLES, len(tasks)))
-    taus = np.array([scipy.stats.kendalltau(y[p], known[p]).statistic for p in picks])
+    taus = _taus(y[picks], known[picks])
     taus = taus[np.isfinite(taus)]
     if taus.size >= 2:
         row["tasks_low"], row["tasks_high"] = (float(q) for q in np.quantile(taus, [tail, 1 - tail]))
     return row
+
+
+def _taus(ys: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """Kendall's τ-b of each row of ``ys`` (R, n) with the matching row of ``known`` (R, n), or with its one row
+    (1, n): scipy's ``kendalltau`` along ``axis=1`` (R values; NaN where a row is constant)."""
+    if ys.shape[0] == 0:
+        return np.empty(0)
+    known = np.broadcast_to(known, ys.shape)
+    return np.asarray(scipy.stats.kendalltau(ys, known, axis=1).statistic, dtype=np.float64).reshape(-1)
 
 
 def _outcome(tau: float, p: float, alpha: float, tasks: int, groups: int) -> str:
