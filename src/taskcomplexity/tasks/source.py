@@ -29,14 +29,15 @@ OWN_PACKAGE = "taskcomplexity"
 
 def source_digest(module: str | None, origin: Path | None = None) -> str:
     """SHA-256 (16 hex digits) of the env's source: the file ``origin`` that defines it (of ``module`` when not
-    given), followed, when it imports any of the researcher's own modules, by each of them (its name and its
-    bytes, in name order). "" when there is no file to read."""
+    given), followed, when it is the researcher's own code and imports any of the researcher's own modules, by each
+    of them (its name and its bytes, in name order); an installed package's file is not read for imports. "" when
+    there is no file to read."""
     try:
         origin = origin or _origin(module)
         if origin is None:
             return ""
         digest = hashlib.sha256(origin.read_bytes())
-        if module is not None and not module.startswith(OWN_PACKAGE + "."):
+        if module is not None and not module.startswith(OWN_PACKAGE + ".") and _own(origin):
             for name, path in sorted(own_imports(module, origin).items()):
                 digest.update(b"\0" + name.encode() + b"\0" + path.read_bytes())
         return digest.hexdigest()[:16]
