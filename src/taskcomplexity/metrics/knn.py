@@ -21,11 +21,14 @@ whose k is at least half its size; those inputs are passed to scikit-learn itsel
 
 from __future__ import annotations
 
+import functools
+
 import numba
 import numpy as np
 import scipy.special
 import sklearn.feature_selection
 import sklearn.preprocessing
+import threadpoolctl
 
 
 def mutual_info_classif_1d(values: np.ndarray, labels: np.ndarray, *, n_neighbors: int, random_state: int) -> float:
@@ -53,9 +56,10 @@ def mutual_info_classif_1d(values: np.ndarray, labels: np.ndarray, *, n_neighbor
     k_of_label = np.minimum(n_neighbors, counts - 1)
     paired = counts > 1
     if np.any(k_of_label[paired] >= counts[paired] // 2):
-        return float(sklearn.feature_selection.mutual_info_classif(
-            values.reshape(-1, 1), labels, discrete_features=False, n_neighbors=n_neighbors,
-            random_state=random_state)[0])
+        with _openmp().limit(limits=1, user_api="openmp"):
+            return float(sklearn.feature_selection.mutual_info_classif(
+                values.reshape(-1, 1), labels, discrete_features=False, n_neighbors=n_neighbors,
+                random_state=random_state)[0])
 
     # The preprocessing of sklearn.feature_selection._mutual_info._estimate_mi, step for step.
     rng = np.random.RandomState(random_state)
@@ -80,6 +84,15 @@ def mutual_info_classif_1d(values: np.ndarray, labels: np.ndarray, *, n_neighbor
     mi = (scipy.special.digamma(x.size) + np.mean(scipy.special.digamma(k_all))
           - np.mean(scipy.special.digamma(label_counts)) - np.mean(scipy.special.digamma(within)))
     return float(max(0, mi))
+
+
+@functools.cache
+def _openmp():
+    """The process's thread pools (:class:`threadpoolctl.ThreadpoolController`, found once): scikit-learn's
+    neighbour searches run on OpenMP threads, whose start and wait cost 10-20 times the work on the few samples of
+    a label that takes that path (k at least half of it), so it runs them on one thread (the same numbers: a label
+    that small is one chunk of the search whatever the threads)."""
+    return threadpoolctl.ThreadpoolController()
 
 
 @numba.njit(cache=True, parallel=True)
