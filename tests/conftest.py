@@ -2,17 +2,23 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
-import subprocess
-from pathlib import Path
 
-import pytest
-from hydra import compose, initialize_config_dir
-from hydra.core.global_hydra import GlobalHydra
-from omegaconf import open_dict
+# As the commands set it (taskcomplexity.commands): OpenMP's threads (torch's, scikit-learn's) sleep while they wait
+# instead of spinning, which takes a core from the other pytest-xdist worker. Read once, when a library loads
+# OpenMP: set before any is imported.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-from taskcomplexity.cli import CONF_DIR
+import contextlib  # noqa: E402
+import subprocess  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+from hydra import compose, initialize_config_dir  # noqa: E402
+from hydra.core.global_hydra import GlobalHydra  # noqa: E402
+from omegaconf import open_dict  # noqa: E402
+
+from taskcomplexity.cli import CONF_DIR  # noqa: E402
 
 
 @pytest.fixture
