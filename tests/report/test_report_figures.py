@@ -61,6 +61,21 @@ def test_figures_are_saved_as_png_and_pdf_without_touching_global_state(tmp_path
     assert labels == ["policies (log scale)", "return (sum of rewards)", "sd √Vₙ (sum of rewards)"]
 
 
+@pytest.mark.parametrize("automatic", ["figure.autolayout", "figure.constrained_layout.use"])
+def test_both_files_are_written_at_the_last_drawn_layout_whatever_the_rc_says(tmp_path, monkeypatch, automatic):
+    # save_figure writes each file with no layout engine (one draw per file) and the engine back after, also where
+    # a user's matplotlibrc turns an automatic layout on
+    returns = np.random.default_rng(1).normal(size=(40, 6))
+    figure = fig.rwg_trio_figure("2-link, dense", policy_statistics(returns), returns=returns)
+    engines = []
+    savefig = figure.savefig
+    monkeypatch.setattr(figure, "savefig", lambda *a, **k: (engines.append(figure.get_layout_engine()), savefig(*a, **k)))
+    with mpl.rc_context({automatic: True}):
+        fig.save_figure(figure, tmp_path, "trio")
+    assert engines == [None, None]
+    assert isinstance(figure.get_layout_engine(), mpl.layout_engine.ConstrainedLayoutEngine)
+
+
 def test_the_ablation_overlays_returns_and_policy_tables_of_different_sizes():
     rng = np.random.default_rng(2)
     figure = fig.ablation_figure({"N = 30": rng.normal(size=(30, 5)), "N = 60": policy_statistics(rng.normal(size=(60, 5)))},

@@ -59,6 +59,9 @@ _RC = {
     "lines.linewidth": 1.2,
     "savefig.bbox": "tight",
     "savefig.pad_inches": 0.03,
+    # set_layout_engine(None) means no engine only while these are off (a matplotlibrc may turn them on)
+    "figure.autolayout": False,
+    "figure.constrained_layout.use": False,
 }
 
 
@@ -86,7 +89,7 @@ def save_figure(figure: Figure, directory: Path, name: str) -> list[Path]:
         pad = mpl.rcParams["savefig.pad_inches"]
         box = figure.get_tightbbox(FigureCanvasAgg(figure).get_renderer()).padded(pad)   # inches
         engine = figure.get_layout_engine()
-        figure.set_layout_engine(None)   # no engine (rc figure.autolayout and constrained_layout.use are off)
+        figure.set_layout_engine(None)   # no engine: paper_style turns the rc's automatic layouts off
         try:
             for path in paths:
                 figure.savefig(path, dpi=DPI, bbox_inches=box,
