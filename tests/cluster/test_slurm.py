@@ -218,8 +218,11 @@ def test_a_job_at_its_time_limit_is_requeued_and_resumes_from_its_saved_chunks(e
     assert restarts == sorted(set(restarts)) and restarts[-1] >= 1 and records[0]["reused"] == 0
     assert all(later["reused"] == earlier["reused"] + earlier["units"] for earlier, later in itertools.pairwise(records))
     assert sum(r["units"] for r in records) == 12   # every policy computed once over the attempts
+    # every attempt but the last was requeued: at least those that saved a chunk, and one that had saved its last
+    # chunk (or none) when the time-limit signal came before it returned (under load, or a late start)
     attempts = [r["State"] for r in settled(job, environment)]
-    assert attempts == ["REQUEUED"] * restarts[-1] + ["COMPLETED"]
+    assert attempts[-1] == "COMPLETED" and set(attempts[:-1]) == {"REQUEUED"}
+    assert len(attempts) - 1 >= restarts[-1], attempts
     single = one_job_run(tmp_path, *overrides, env=environment)
     assert (artefact(outputs) / "returns.parquet").read_bytes() == (single / "returns.parquet").read_bytes()
 
