@@ -125,7 +125,7 @@ classic-sweep: $(STAMP) ## the 28 network × prior cells of study=classic_contro
 # files in the order tests/conftest.py collects them (the longest first).
 XDIST := -n auto --dist loadfile --no-loadscope-reorder
 
-test: $(STAMP) ## run the test suite (CI runs it beside make test-cluster, then make test-avx2 where the CPU has AVX-512)
+test: $(STAMP) ## run the test suite (CI runs it beside make test-cluster, then make test-atlas, and make test-avx2 where the CPU has AVX-512)
 	$(PY) -m pytest -q -m "not slow and not cluster" $(XDIST)
 
 # The tests that pin numbers (golden runs, the kernels against their references, the backends against PyBullet).
