@@ -4,9 +4,9 @@ matplotlib's usual way of saving a laid-out figure.
 The figure is a study's RWG trios (figure (a): one row of three panels per task, the report's largest figure) of
 ``--tasks`` tasks, drawn from random returns of ``--policies`` × ``--episodes``. Each way writes the PNG (150 dpi)
 and the PDF from a figure drawn afresh, its ticks made legible first (:func:`~taskcomplexity.report.figures.
-legible_ticks`, which draws the figure once more for each change it makes):
+legible_ticks`, which lays the figure out once more for each change it makes):
 
-- ``save_figure``: both files at the bounding box of legible_ticks' last draw, no layout engine while they are
+- ``save_figure``: both files at the bounding box of legible_ticks' last layout, no layout engine while they are
   written: ``savefig`` draws each file once.
 - ``savefig, tight``: ``savefig(bbox_inches="tight")``, the layout engine held off as well: ``savefig`` draws each
   file twice (once to find the box, then the file).
@@ -44,7 +44,7 @@ def trios(tasks: int, policies: int, episodes: int):
 
 
 def savefig_tight(figure, directory: Path, name: str) -> list[Path]:
-    """Both files with ``bbox_inches="tight"``, the layout of legible_ticks' last draw kept (engine "none")."""
+    """Both files with ``bbox_inches="tight"``, the layout of legible_ticks' last layout kept (engine "none")."""
     directory.mkdir(parents=True, exist_ok=True)
     paths = [directory / f"{name}.png", directory / f"{name}.pdf"]
     with paper_style():

@@ -62,7 +62,7 @@ def test_figures_are_saved_as_png_and_pdf_without_touching_global_state(tmp_path
 
 
 @pytest.mark.parametrize("automatic", ["figure.autolayout", "figure.constrained_layout.use"])
-def test_both_files_are_written_at_the_last_drawn_layout_whatever_the_rc_says(tmp_path, monkeypatch, automatic):
+def test_both_files_are_written_at_the_last_layout_whatever_the_rc_says(tmp_path, monkeypatch, automatic):
     # save_figure writes each file with no layout engine (one draw per file) and the engine back after, also where
     # a user's matplotlibrc turns an automatic layout on
     returns = np.random.default_rng(1).normal(size=(40, 6))
@@ -74,6 +74,36 @@ def test_both_files_are_written_at_the_last_drawn_layout_whatever_the_rc_says(tm
         fig.save_figure(figure, tmp_path, "trio")
     assert engines == [None, None]
     assert isinstance(figure.get_layout_engine(), mpl.layout_engine.ConstrainedLayoutEngine)
+
+
+def test_legible_ticks_lays_the_figure_out_without_drawing_it_and_a_draw_changes_nothing_it_read(monkeypatch):
+    # The ticks are read as the layout engine leaves the axes: no draw walks the artists for it, and a draw after it
+    # neither moves an axes nor shows other tick labels. Counts below 10 on a log axis, and a crowded linear axis,
+    # make it change the ticks and lay the figure out again.
+    rng = np.random.default_rng(3)
+    figure, axes = fig._figure(2, 3, 3.4)
+    for row in axes:
+        returns = rng.normal(size=(6, 4)) * 1000
+        fig.draw_rwg_trio(row, policy_statistics(returns), returns=returns, colour="C0")
+    axes[1, 2].xaxis.set_major_locator(mpl.ticker.MaxNLocator(nbins=12))
+    draws = []
+    monkeypatch.setattr(type(figure), "draw", lambda self, renderer: draws.append(self))
+    with fig.paper_style():
+        figure.set_dpi(fig.DPI)
+        fig.legible_ticks(figure)
+        monkeypatch.undo()
+        positions = [ax.get_position().bounds for ax in figure.axes]
+        shown = [[label.get_text() for label in fig.shown_tick_labels(axis)]
+                 for ax in figure.axes for axis in (ax.xaxis, ax.yaxis)]
+        figure.draw_without_rendering()   # lays the figure out again: constrained layout moves an axes by ~1e-9
+        # of the figure's width (a thousandth of a pixel at most: within 1e-6) each time it runs
+        np.testing.assert_allclose([ax.get_position().bounds for ax in figure.axes], positions, rtol=0, atol=1e-6)
+        assert [[label.get_text() for label in fig.shown_tick_labels(axis)]
+                for ax in figure.axes for axis in (ax.xaxis, ax.yaxis)] == shown
+    assert draws == []
+    assert all(len(labels) >= 2 for labels in shown)
+    crowded = [label.get_window_extent() for label in fig.shown_tick_labels(axes[1, 2].xaxis)]
+    assert not fig.overlapping(fig.shown_tick_labels(axes[1, 2].xaxis)) and 2 <= len(crowded) < 12
 
 
 def test_the_ablation_overlays_returns_and_policy_tables_of_different_sizes():

@@ -15,7 +15,7 @@ raises ValueError, and the report puts one line saying why in its place
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -77,17 +77,18 @@ def save_figure(figure: Figure, directory: Path, name: str) -> list[Path]:
     """Write ``name.png`` (150 dpi) and ``name.pdf`` under ``directory``, their ticks made legible first
     (:func:`legible_ticks`); return both paths.
 
-    Both files share the layout and the bounding box of the last draw: with no layout engine and a given box,
-    ``savefig`` draws each file once, where a layout engine or ``bbox_inches="tight"`` would make it draw the
+    Both files share the last layout (:func:`legible_ticks`) and its bounding box: with no layout engine and a given
+    box, ``savefig`` draws each file once, where a layout engine or ``bbox_inches="tight"`` would make it draw the
     figure once more before (about two fifths of the time to save a figure: bench/bench_report.py).
     """
     directory.mkdir(parents=True, exist_ok=True)
     paths = [directory / f"{name}.png", directory / f"{name}.pdf"]
     with paper_style():
         figure.set_dpi(DPI)   # laid out as the PNG is drawn
+        canvas = FigureCanvasAgg(figure)   # the renderer that lays out, measures and draws the PNG
         legible_ticks(figure)
         pad = mpl.rcParams["savefig.pad_inches"]
-        box = figure.get_tightbbox(FigureCanvasAgg(figure).get_renderer()).padded(pad)   # inches
+        box = figure.get_tightbbox(canvas.get_renderer()).padded(pad)   # inches
         engine = figure.get_layout_engine()
         figure.set_layout_engine(None)   # no engine: paper_style turns the rc's automatic layouts off
         try:
@@ -100,7 +101,7 @@ def save_figure(figure: Figure, directory: Path, name: str) -> list[Path]:
 
 
 def shown_tick_labels(axis, which: str = "both") -> list:
-    """The tick labels ``axis`` (an Axes' ``xaxis`` or ``yaxis``) shows at its last draw: visible, with text, at a
+    """The tick labels ``axis`` (an Axes' ``xaxis`` or ``yaxis``) shows as it stands: visible, with text, at a
     tick within the view limits; ``which``: "major", "minor" or "both"."""
     low, high = sorted(axis.get_view_interval())
     slack = (high - low) * 1e-9
@@ -122,7 +123,7 @@ def shows_tick_labels(axis) -> bool:
 
 def overlapping(labels: Sequence, *, gap: float = 2.0) -> bool:
     """Whether two of the tick ``labels`` of one axis overlap, or come closer than ``gap`` points, on the canvas
-    at the last draw."""
+    at the figure's current layout."""
     if not labels:
         return False
     pad = gap * labels[0].figure.dpi / 72
@@ -141,11 +142,15 @@ def legible_ticks(figure: Figure, *, attempts: int = 4) -> Figure:
     shows 1, 2, 5), a linear one at least 2 from its locator. An axis whose labels overlap gets fewer: first its
     minor labels go, then a linear axis asks its locator for fewer bins and a log axis drops its 2s and 5s, then
     decades. Fixed ticks (category names, the sizes of a sweep) are left as drawn. The figure is laid out again
-    after each change, up to ``attempts`` times, and drawn once more after the last one, so that its last draw (and
-    layout) is of the figure as it stands; returns ``figure``.
+    after each change, up to ``attempts`` times, and once more after the last one, so that its last layout is of the
+    figure as it stands; returns ``figure``.
+
+    Laying out is what a draw does first (its layout engine places the axes); the rest of a draw, every artist
+    walked through, is not needed to read the ticks: an axis computes its ticks and their labels when they are read,
+    and a label measures itself with the figure's renderer.
     """
     for _ in range(attempts):
-        figure.draw_without_rendering()
+        lay_out(figure)
         changed = False
         for ax in figure.axes:
             for axis in (ax.xaxis, ax.yaxis):
@@ -157,8 +162,17 @@ def legible_ticks(figure: Figure, *, attempts: int = 4) -> Figure:
                         changed |= _fewer_ticks(axis, len(labels))
         if not changed:
             return figure
-    figure.draw_without_rendering()
+    lay_out(figure)
     return figure
+
+
+def lay_out(figure: Figure) -> None:
+    """Place the axes of ``figure`` as its layout engine does at the start of a draw (none: they stay), without
+    drawing: as ``Figure.draw`` does, a layout the engine cannot fit (``ValueError``) leaves them where they are."""
+    engine = figure.get_layout_engine()
+    if figure.axes and engine is not None:
+        with suppress(ValueError):
+            engine.execute(figure)
 
 
 def _more_ticks(axis) -> bool:
