@@ -90,6 +90,9 @@ def test_legible_ticks_lays_the_figure_out_without_drawing_it_and_a_draw_changes
     monkeypatch.setattr(type(figure), "draw", lambda self, renderer: draws.append(self))
     with fig.paper_style():
         figure.set_dpi(fig.DPI)
+        fig.lay_out(figure)
+        crowded = fig.shown_tick_labels(axes[1, 2].xaxis)
+        assert fig.overlapping(crowded)   # what legible_ticks has to change
         fig.legible_ticks(figure)
         monkeypatch.undo()
         positions = [ax.get_position().bounds for ax in figure.axes]
@@ -102,8 +105,8 @@ def test_legible_ticks_lays_the_figure_out_without_drawing_it_and_a_draw_changes
                 for ax in figure.axes for axis in (ax.xaxis, ax.yaxis)] == shown
     assert draws == []
     assert all(len(labels) >= 2 for labels in shown)
-    crowded = [label.get_window_extent() for label in fig.shown_tick_labels(axes[1, 2].xaxis)]
-    assert not fig.overlapping(fig.shown_tick_labels(axes[1, 2].xaxis)) and 2 <= len(crowded) < 12
+    thinned = fig.shown_tick_labels(axes[1, 2].xaxis)
+    assert not fig.overlapping(thinned) and 2 <= len(thinned) < len(crowded)
 
 
 def test_the_ablation_overlays_returns_and_policy_tables_of_different_sizes():
